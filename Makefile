@@ -1,0 +1,31 @@
+# The two commands of the README: `make run` and `make test`. Both create and
+# reuse a local virtual environment in .venv; nothing needs root.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+EXAMPLE ?= examples/two_windmills.toml
+OUT ?= out/two_windmills
+
+.PHONY: run test venv bench clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/rast stream $(EXAMPLE) --out $(OUT)
+	$(BIN)/rast preview $(EXAMPLE) --out $(OUT)/spectrogram.png
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -n 2 -ra $(PYTEST_ARGS)
+
+bench: $(STAMP)
+	$(BIN)/python bench/bench_streams.py
+
+clean:
+	rm -rf out build sim_build

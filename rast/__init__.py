@@ -1,0 +1,1 @@
+"""RAST: RAdar Simulation of wind Turbines."""
