@@ -1,0 +1,439 @@
+"""Configuration: the seed's parameter names and units (Table 2.1, 2.2), read from TOML.
+
+Two file shapes are accepted:
+
+* a *flat* file: the windmill keys at the top level beside ``sample_rate``,
+  ``radar_frequency`` and ``output_file`` (what users of the original tool have);
+* a *farm* file: ``sample_rate``, ``radar_frequency`` and the radar and replay
+  settings at the top, and one ``[[windmill]]`` table per turbine with a ``name``.
+
+Every problem found is reported at once, each naming the windmill and the key,
+in a :class:`ConfigError`; nothing is written when a config is bad.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["ConfigError", "BladeFlash", "WeightTable", "Wire", "Tower", "Radar",
+           "Windmill", "Farm", "load_config", "parse_config", "SPEED_OF_LIGHT_M_S"]
+
+SPEED_OF_LIGHT_M_S = 299_792_458.0
+
+
+class ConfigError(ValueError):
+    """A configuration is invalid; ``problems`` lists every problem found."""
+
+    def __init__(self, problems: list[str], source: str | None = None):
+        self.problems = list(problems)
+        head = f"{source}: " if source else ""
+        if len(self.problems) == 1:
+            super().__init__(head + self.problems[0])
+        else:
+            super().__init__(head + f"{len(self.problems)} problems:\n" +
+                             "\n".join("  - " + p for p in self.problems))
+
+
+@dataclass(frozen=True)
+class BladeFlash:
+    """Parametric blade flash: a Gaussian bump of the RCS around given blade angles.
+
+    ``angle_deg``: blade angles of the flash centres (0° = blade pointing up,
+    perpendicular to the line of sight); ``width_deg``: full width at half
+    maximum; ``gain_db``: RCS gain at the peak (amplitude gain 10^(gain_db/20)).
+    """
+    angle_deg: tuple[float, ...]
+    width_deg: float
+    gain_db: float
+
+
+@dataclass(frozen=True)
+class WeightTable:
+    """Amplitude weights w_k(β) of eq. 2.19 sampled evenly over one revolution.
+
+    ``weights`` has one row per scatterer (or one row for all), column j at
+    blade angle 360°·j/columns; values in between are interpolated linearly
+    and periodically.
+    """
+    weights: np.ndarray
+
+
+@dataclass(frozen=True)
+class Wire:
+    """A straight wire blade of seed Table 2.2 (eq. 2.20–2.23)."""
+    radius_min_m: float
+    radius_max_m: float
+    reflectivity: float          # α of eq. 2.20, m²/m; the flash amplitude is α·L
+    phase_offset_deg: float = 0.0
+    view_angle_deg: float = 0.0  # added to rotor_angle for the wire's projection
+
+
+@dataclass(frozen=True)
+class Tower:
+    """The mast: a static scatterer (zero Doppler) and the shadow it casts on the blades."""
+    rcs_m2: float = 0.0
+    phase_deg: float = 0.0
+    shadow_width_deg: float = 0.0   # blade-angle width around 180° (blade down) that is shadowed
+    shadow_depth_db: float = 20.0   # attenuation of the blade's RCS in the middle of the shadow
+
+
+@dataclass(frozen=True)
+class Radar:
+    """The radar the farm is seen by (defaults: seed Table 3.1)."""
+    frequency_mhz: float
+    prf_hz: float = 20_000.0
+    pulse_width_us: float = 2.0
+    cpi_ms: float = 100.0
+
+    @property
+    def wavelength_m(self) -> float:
+        return SPEED_OF_LIGHT_M_S / (self.frequency_mhz * 1e6)
+
+
+@dataclass(frozen=True)
+class Windmill:
+    """One turbine. Angles in degrees, lengths in metres, RCS in m², range in km."""
+    name: str
+    range_km: float
+    num_blades: int
+    rpm: float
+    rotor_angle_deg: float = 0.0
+    start_angle_deg: float = 0.0
+    radius_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rcs_m2: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    phase_start_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    weighting: BladeFlash | WeightTable | None = None
+    wire: Wire | None = None
+    tower: Tower | None = None
+    #: None: automatic (oversampling × max Doppler); "rts": one word per RTS
+    #: sample (the seed's mode); a number: requested stream rate in Hz.
+    stream_rate: float | str | None = None
+    output_file: str | None = None
+
+    @property
+    def num_rcs(self) -> int:
+        return len(self.radius_m)
+
+    @property
+    def period_s(self) -> float:
+        """T_sim of eq. 2.13: the modulation repeats every 1/num_blades revolution."""
+        return 60.0 / (self.rpm * self.num_blades)
+
+
+@dataclass(frozen=True)
+class Farm:
+    """A wind farm seen by one radar and replayed by one RTS."""
+    sample_rate_mhz: float
+    radar: Radar
+    windmills: tuple[Windmill, ...]
+    ram_depth: int = 32768              # stream words available per channel (gateware depth)
+    stream_oversampling: float = 4.0    # stream rate ≥ this × max Doppler
+    output_gain_db: float = 0.0         # level of the loudest windmill's peak
+
+    @property
+    def sample_rate_hz(self) -> float:
+        return self.sample_rate_mhz * 1e6
+
+
+# ---------------------------------------------------------------------------
+# Parsing
+
+_RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
+_FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate"} | _RADAR_KEYS
+_WINDMILL_KEYS = {
+    "name", "range", "num_blades", "rpm", "rotor_angle", "start_angle", "num_rcs",
+    "radius", "rsc", "rcs", "phase_start", "rsc_weighting",
+    "wire_enable", "wire_radius_min", "wire_radius_max", "wire_reflectivity",
+    "wire_phase_offset", "wire_view_angle",
+    "tower_rcs", "tower_phase", "tower_shadow_width", "tower_shadow_depth",
+    "stream_rate", "output_file",
+}
+_FLASH_KEYS = {"angle", "width", "gain_db"}
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+def _did_you_mean(key: str, allowed) -> str:
+    close = difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+class _Reader:
+    """Reads typed values from one TOML table, collecting problems instead of raising."""
+
+    def __init__(self, table: dict, where: str, problems: list[str]):
+        self.table, self.where, self.problems = table, where, problems
+
+    def problem(self, key: str | None, message: str):
+        prefix = f"{self.where}: " if self.where else ""
+        self.problems.append(prefix + (f"'{key}' " if key else "") + message)
+
+    def unknown(self, allowed):
+        for key in self.table:
+            if key not in allowed:
+                self.problem(key, "is not a known key" + _did_you_mean(key, allowed))
+
+    def number(self, key, default=None, *, required=False, positive=False,
+               non_negative=False, unit=""):
+        if key not in self.table:
+            if required:
+                self.problem(key, "is required" + (f" ({unit})" if unit else ""))
+            return default
+        value = self.table[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.problem(key, f"must be a number, not {value!r}")
+            return default
+        if positive and not value > 0:
+            self.problem(key, f"must be positive, not {value!r}")
+            return default
+        if non_negative and value < 0:
+            self.problem(key, f"must not be negative, not {value!r}")
+            return default
+        return float(value)
+
+    def integer(self, key, default=None, *, required=False, minimum=None):
+        if key not in self.table:
+            if required:
+                self.problem(key, "is required")
+            return default
+        value = self.table[key]
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.problem(key, f"must be an integer, not {value!r}")
+            return default
+        if minimum is not None and value < minimum:
+            self.problem(key, f"must be at least {minimum}, not {value!r}")
+            return default
+        return value
+
+    def vector(self, key, length, default=None, *, non_negative=False):
+        """A per-scatterer vector: a list of num_rcs numbers (a bare number when num_rcs = 1)."""
+        if key not in self.table:
+            return default
+        value = self.table[key]
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = [value]
+        if (not isinstance(value, list) or
+                not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                        for v in value)):
+            self.problem(key, f"must be a list of numbers, not {value!r}")
+            return default
+        if length is not None and len(value) != length:
+            self.problem(key, f"has {len(value)} values but num_rcs = {length}")
+            return default
+        array = np.asarray(value, dtype=float)
+        if non_negative and np.any(array < 0):
+            self.problem(key, f"must not hold negative values, not {value!r}")
+            return default
+        return array
+
+
+def _parse_weighting(r: _Reader, num_rcs: int):
+    if "rsc_weighting" not in r.table:
+        return None
+    value = r.table["rsc_weighting"]
+    if isinstance(value, dict):
+        sub = _Reader(value, (r.where + ": " if r.where else "") + "rsc_weighting", r.problems)
+        sub.unknown(_FLASH_KEYS)
+        angle = value.get("angle", 0.0)
+        angles = angle if isinstance(angle, list) else [angle]
+        if not angles or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in angles):
+            sub.problem("angle", f"must be a number or a list of numbers (deg), not {angle!r}")
+            angles = [0.0]
+        width = sub.number("width", required=True, positive=True, unit="deg")
+        gain_db = sub.number("gain_db", required=True, unit="dB")
+        if width is None or gain_db is None:
+            return None
+        return BladeFlash(tuple(float(a) for a in angles), width, gain_db)
+    if isinstance(value, list) and value and not isinstance(value[0], list):
+        value = [value]
+    ok = (isinstance(value, list) and value and
+          all(isinstance(row, list) and row and
+              all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                  for v in row) for row in value))
+    if not ok:
+        r.problem("rsc_weighting", "must be a table of weights (a list of rows of numbers, one "
+                  "row per scatterer) or a flash {angle = …, width = …, gain_db = …}, "
+                  f"not {value!r}")
+        return None
+    if len({len(row) for row in value}) != 1:
+        r.problem("rsc_weighting", "rows must all have the same number of columns")
+        return None
+    if len(value) not in (1, num_rcs):
+        r.problem("rsc_weighting", f"has {len(value)} rows but num_rcs = {num_rcs} "
+                  "(give one row per scatterer, or one row for all)")
+        return None
+    weights = np.asarray(value, dtype=float)
+    if np.any(weights < 0):
+        r.problem("rsc_weighting", "weights must not be negative")
+        return None
+    return WeightTable(weights)
+
+
+def _parse_stream_rate(r: _Reader, default):
+    if "stream_rate" not in r.table:
+        return default
+    value = r.table["stream_rate"]
+    if value == "rts" or value == "auto":
+        return None if value == "auto" else "rts"
+    return r.number("stream_rate", default, positive=True, unit="Hz")
+
+
+def _parse_windmill(table: dict, where: str, problems: list[str], default_rate) -> Windmill | None:
+    r = _Reader(table, where, problems)
+    before = len(problems)
+    name = table.get("name", "windmill")
+    if not isinstance(name, str) or not _NAME_RE.match(name):
+        r.problem("name", f"must be a file-name-safe string (letters, digits, _ . -), not {name!r}")
+    range_km = r.number("range", required=True, positive=True, unit="km")
+    num_blades = r.integer("num_blades", required=True, minimum=1)
+    rpm = r.number("rpm", required=True, positive=True, unit="revolutions per minute")
+    rotor_angle = r.number("rotor_angle", 0.0)
+    start_angle = r.number("start_angle", 0.0)
+
+    if "rsc" in table and "rcs" in table:
+        r.problem("rcs", "and 'rsc' are the same parameter; give only one")
+    rcs_key = "rcs" if "rcs" in table else "rsc"
+    num_rcs = r.integer("num_rcs", None, minimum=0)
+    if num_rcs is None and "num_rcs" not in table:
+        radius_given = table.get("radius")
+        num_rcs = (len(radius_given) if isinstance(radius_given, list)
+                   else 1 if isinstance(radius_given, (int, float)) else 0)
+    radius = r.vector("radius", num_rcs, non_negative=True)
+    rcs = r.vector(rcs_key, num_rcs, non_negative=True)
+    phase = r.vector("phase_start", num_rcs, np.zeros(num_rcs or 0))
+    if num_rcs:
+        for key, value in (("radius", radius), ("rsc", rcs)):
+            if key not in table and not (key == "rsc" and rcs_key in table):
+                r.problem(key, f"is required when num_rcs = {num_rcs}")
+    weighting = _parse_weighting(r, num_rcs or 0)
+
+    wire = None
+    wire_enable = table.get("wire_enable", False)
+    if not isinstance(wire_enable, bool):
+        r.problem("wire_enable", f"must be true or false, not {wire_enable!r}")
+        wire_enable = False
+    wire_keys = [k for k in table if k.startswith("wire_") and k != "wire_enable"]
+    if wire_enable:
+        rmin = r.number("wire_radius_min", 0.0, non_negative=True, unit="m")
+        rmax = r.number("wire_radius_max", required=True, positive=True, unit="m")
+        alpha = r.number("wire_reflectivity", required=True, non_negative=True, unit="m²/m")
+        if rmin is not None and rmax is not None and not rmin < rmax:
+            r.problem("wire_radius_min", f"({rmin} m) must be less than 'wire_radius_max' ({rmax} m)")
+        wire = Wire(rmin, rmax, alpha, r.number("wire_phase_offset", 0.0),
+                    r.number("wire_view_angle", 0.0))
+    elif wire_keys:
+        r.problem(wire_keys[0], "is set but 'wire_enable' is not true")
+
+    tower = None
+    tower_rcs = r.number("tower_rcs", 0.0, non_negative=True, unit="m²")
+    shadow_width = r.number("tower_shadow_width", 0.0, non_negative=True, unit="deg")
+    if shadow_width is not None and shadow_width >= 360:
+        r.problem("tower_shadow_width", f"must be less than 360 deg, not {shadow_width!r}")
+    shadow_depth = r.number("tower_shadow_depth", 20.0, non_negative=True, unit="dB")
+    if tower_rcs or shadow_width or "tower_phase" in table:
+        tower = Tower(tower_rcs or 0.0, r.number("tower_phase", 0.0),
+                      shadow_width or 0.0, shadow_depth if shadow_depth is not None else 20.0)
+
+    stream_rate = _parse_stream_rate(r, default_rate)
+    output_file = table.get("output_file")
+    if output_file is not None and not isinstance(output_file, str):
+        r.problem("output_file", f"must be a file name, not {output_file!r}")
+        output_file = None
+
+    if len(problems) > before:
+        return None
+    if not num_rcs and wire is None and (tower is None or tower.rcs_m2 == 0):
+        r.problem(None, "has nothing that reflects: give point scatterers (num_rcs > 0), "
+                  "a wire (wire_enable = true) or a tower (tower_rcs > 0)")
+        return None
+    return Windmill(name=name, range_km=range_km, num_blades=num_blades, rpm=rpm,
+                    rotor_angle_deg=rotor_angle, start_angle_deg=start_angle,
+                    radius_m=radius if radius is not None else np.zeros(0),
+                    rcs_m2=rcs if rcs is not None else np.zeros(0),
+                    phase_start_deg=phase if phase is not None else np.zeros(0),
+                    weighting=weighting, wire=wire, tower=tower,
+                    stream_rate=stream_rate, output_file=output_file)
+
+
+def parse_config(data: dict, source: str | None = None) -> Farm:
+    """Validate a parsed TOML document and build the :class:`Farm` it describes."""
+    problems: list[str] = []
+    farm_file = "windmill" in data
+    top = _Reader(data, "", problems)
+    if farm_file:
+        top.unknown(_FARM_KEYS | {"windmill"})
+    else:
+        top.unknown(_FARM_KEYS | _WINDMILL_KEYS)
+
+    sample_rate = top.number("sample_rate", required=True, positive=True, unit="MHz")
+    frequency = top.number("radar_frequency", required=True, positive=True, unit="MHz")
+    prf = top.number("prf", 20_000.0, positive=True, unit="Hz")
+    pulse_width = top.number("pulse_width", 2.0, positive=True, unit="µs")
+    cpi = top.number("cpi", 100.0, positive=True, unit="ms")
+    ram_depth = top.integer("ram_depth", 32768, minimum=2)
+    oversampling = top.number("stream_oversampling", 4.0, unit="× max Doppler")
+    if oversampling is not None and oversampling < 2:
+        top.problem("stream_oversampling", f"must be at least 2 (Nyquist), not {oversampling!r}")
+    output_gain_db = top.number("output_gain_db", 0.0, unit="dB")
+    if prf and pulse_width and pulse_width * 1e-6 * prf >= 1:
+        top.problem("pulse_width", f"({pulse_width} µs) must be shorter than the pulse "
+                    f"repetition interval ({1e6 / prf:g} µs)")
+
+    windmills = []
+    if farm_file:
+        default_rate = _parse_stream_rate(top, None)
+        tables = data["windmill"]
+        if not isinstance(tables, list) or not tables:
+            top.problem("windmill", "must be one or more [[windmill]] tables")
+            tables = []
+        for index, table in enumerate(tables):
+            name = table.get("name") if isinstance(table, dict) else None
+            where = f"windmill '{name}'" if isinstance(name, str) else f"windmill #{index + 1}"
+            if not isinstance(table, dict):
+                problems.append(f"{where}: must be a table")
+                continue
+            if "name" not in table:
+                problems.append(f"{where}: 'name' is required in a farm file")
+            sub = _Reader(table, where, problems)
+            sub.unknown(_WINDMILL_KEYS)
+            windmill = _parse_windmill(table, where, problems, default_rate)
+            if windmill:
+                windmills.append(windmill)
+        names = [w.name for w in windmills]
+        for name in sorted({n for n in names if names.count(n) > 1}):
+            problems.append(f"windmill '{name}': 'name' is used by {names.count(name)} windmills; "
+                            "names must be unique (they name the stream files)")
+    else:
+        table = {k: v for k, v in data.items() if k in _WINDMILL_KEYS}
+        if "name" not in table:
+            out = data.get("output_file")
+            stem = Path(out).stem if isinstance(out, str) and out else "windmill"
+            table["name"] = re.sub(r"[^A-Za-z0-9_.-]", "_", stem) or "windmill"
+        windmill = _parse_windmill(table, "", problems, None)
+        if windmill:
+            windmills.append(windmill)
+
+    if problems:
+        raise ConfigError(problems, source)
+    radar = Radar(frequency, prf, pulse_width, cpi)
+    return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db)
+
+
+def load_config(path) -> Farm:
+    """Read and validate a TOML config file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise ConfigError([f"cannot read the config: {error.strerror}"], str(path)) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError([f"is not valid TOML: {error}"], str(path)) from None
+    return parse_config(data, str(path))

@@ -1,0 +1,224 @@
+"""Modulation streams: one seamless period per windmill, quantised for the replay RAM.
+
+A stream holds exactly one period T_sim = 60/(rpm·num_blades) (eq. 2.13) in N
+words read at ``stream_rate_hz = N / T_sim``, so the loop has no seam. The rate
+is chosen per windmill:
+
+* automatic: N = ceil(oversampling · max_doppler · T_sim) (at least
+  ``MIN_STREAM_WORDS``), so the rate is at least ``oversampling`` × the largest
+  Doppler of that windmill;
+* forced (``stream_rate`` in Hz): N = round(stream_rate · T_sim), the rate then
+  moved to N / T_sim so the loop stays seamless;
+* ``"rts"``, the seed's mode: one word per RTS sample, N = round(T_sim ·
+  sample_rate). The replayed period is N / sample_rate, which differs from
+  T_sim by less than half an RTS sample; the samples are taken over exactly
+  one period, so the loop is still seamless and the rotation speed is off by
+  less than 1/(2N) (reported as ``rpm_replayed``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import fixedpoint as fx
+from .config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
+from .turbine import max_doppler_hz, modulation
+
+__all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams",
+           "plan_stream", "stream_times", "quantise", "build_farm_streams",
+           "delay_samples"]
+
+MIN_STREAM_WORDS = 16
+
+
+@dataclass(frozen=True)
+class StreamPlan:
+    """How one windmill's period is sampled."""
+    length: int               # N, stream words in one period
+    stream_rate_hz: float     # words per second as replayed
+    period_s: float           # replayed period, N / stream_rate_hz
+    phase_increment: int      # RAM address step per RTS sample, in 2**-PHASE_FRAC_BITS words
+    max_doppler_hz: float
+
+
+def plan_stream(windmill: Windmill, farm: Farm) -> StreamPlan:
+    """Choose N and the stream rate for one windmill (see the module docstring)."""
+    t_sim = windmill.period_s
+    f_max = max_doppler_hz(windmill, farm.radar.wavelength_m)
+    f_s = farm.sample_rate_hz
+    one_word = 1 << fx.PHASE_FRAC_BITS
+    if windmill.stream_rate == "rts":
+        length = max(1, round(t_sim * f_s))
+        return StreamPlan(length, f_s, length / f_s, one_word, f_max)
+    if windmill.stream_rate is None:
+        length = max(MIN_STREAM_WORDS, math.ceil(farm.stream_oversampling * f_max * t_sim))
+    else:
+        length = max(1, round(windmill.stream_rate * t_sim))
+    rate = length / t_sim
+    increment = round(rate / f_s * one_word)
+    return StreamPlan(length, rate, t_sim, increment, f_max)
+
+
+def stream_times(plan: StreamPlan, windmill: Windmill) -> np.ndarray:
+    """The N sample instants of one period, t_n = n·T_sim/N (seconds)."""
+    return np.arange(plan.length) * (windmill.period_s / plan.length)
+
+
+def quantise(period: np.ndarray, fmt: fx.Format = fx.STREAM):
+    """Scale a complex period to the full signed word range and round.
+
+    Returns ``(i, q, scale, snr_db)``: integer I and Q (int64), the scale
+    (word units per unit of modulation) and the quantisation SNR in dB.
+    """
+    peak = float(np.max(np.maximum(np.abs(period.real), np.abs(period.imag)))) if period.size else 0.0
+    scale = fmt.max / peak if peak > 0 else 1.0
+    scaled = period * scale
+    i = np.clip(np.round(scaled.real), fmt.min, fmt.max).astype(np.int64)
+    q = np.clip(np.round(scaled.imag), fmt.min, fmt.max).astype(np.int64)
+    error = (i - scaled.real) ** 2 + (q - scaled.imag) ** 2
+    signal = np.abs(scaled) ** 2
+    snr_db = 10 * np.log10(signal.sum() / error.sum()) if error.sum() > 0 else math.inf
+    return i, q, scale, float(snr_db)
+
+
+def delay_samples(range_km: float, sample_rate_hz: float) -> int:
+    """Round-trip delay 2R/c in RTS samples (seed section 2.6)."""
+    return round(2 * range_km * 1e3 / SPEED_OF_LIGHT_M_S * sample_rate_hz)
+
+
+@dataclass
+class WindmillStream:
+    windmill: Windmill
+    plan: StreamPlan
+    period: np.ndarray        # complex128, unquantised m(t_n)
+    i: np.ndarray             # int64 words
+    q: np.ndarray
+    scale: float
+    snr_db: float
+    delay_samples: int
+    relative_amplitude: float  # K_l / K_nearest = (R_nearest / R_l)² (eq. 2.6, 2.24)
+    gain: float = 0.0
+    gain_word: int = 0
+    tap: int = 0
+
+    @property
+    def words(self) -> np.ndarray:
+        return fx.pack_iq(self.i, self.q)
+
+
+@dataclass
+class FarmStreams:
+    farm: Farm
+    streams: list[WindmillStream]   # sorted by range, nearest first: the channel order
+    taps: list[dict]
+
+    def manifest(self, file_names: dict[str, dict[str, str]] | None = None) -> dict:
+        """The farm's manifest: per windmill its stream, delay and gain, and register values."""
+        farm = self.farm
+        windmills = []
+        for s in self.streams:
+            w = s.windmill
+            entry = {
+                "name": w.name,
+                **(file_names or {}).get(w.name, {}),
+                "range_km": w.range_km,
+                "rpm": w.rpm,
+                "rpm_replayed": w.rpm * w.period_s / s.plan.period_s,
+                "num_blades": w.num_blades,
+                "length": s.plan.length,
+                "stream_rate_hz": s.plan.stream_rate_hz,
+                "period_s": s.plan.period_s,
+                "max_doppler_hz": s.plan.max_doppler_hz,
+                "phase_increment": s.plan.phase_increment,
+                "delay_samples": s.delay_samples,
+                "tap": s.tap,
+                "relative_amplitude": s.relative_amplitude,
+                "gain": s.gain,
+                "gain_word": s.gain_word,
+                "scale": s.scale,
+                "snr_db": s.snr_db,
+            }
+            windmills.append(entry)
+        channels = []
+        previous_delay = 0
+        for s in self.streams:
+            channels.append({
+                "windmill": s.windmill.name,
+                "enable": 1,
+                "length": s.plan.length,
+                "phase_increment": s.plan.phase_increment,
+                "gain": s.gain_word,
+                "delay_increment": s.delay_samples - previous_delay,
+            })
+            previous_delay = s.delay_samples
+        return {
+            "format": "rast-manifest/1",
+            "sample_rate_hz": farm.sample_rate_hz,
+            "radar_frequency_hz": farm.radar.frequency_mhz * 1e6,
+            "radar": {"prf_hz": farm.radar.prf_hz, "pulse_width_us": farm.radar.pulse_width_us,
+                      "cpi_ms": farm.radar.cpi_ms},
+            "ram_depth": farm.ram_depth,
+            "fixed_point": {"stream_width": fx.STREAM_WIDTH, "gain_width": fx.GAIN_WIDTH,
+                            "gain_frac": fx.GAIN_FRAC, "phase_frac_bits": fx.PHASE_FRAC_BITS},
+            "windmills": windmills,
+            "taps": self.taps,
+            "registers": {"channels": channels},
+        }
+
+
+def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True) -> FarmStreams:
+    """Compute every windmill's period, quantise it, and derive delays, taps and gains.
+
+    Raises :class:`ConfigError` (naming the windmill) when a stream does not
+    fit ``ram_depth`` or a gain does not fit the gain register.
+    """
+    problems = []
+    plans = [plan_stream(w, farm) for w in farm.windmills]
+    for w, plan in zip(farm.windmills, plans):
+        if w.stream_rate not in (None, "rts") and w.stream_rate > farm.sample_rate_hz:
+            problems.append(f"windmill '{w.name}': 'stream_rate' ({w.stream_rate:g} Hz) must not "
+                            f"exceed the RTS sample rate ({farm.sample_rate_hz:g} Hz)")
+        elif check_ram_depth and plan.length > farm.ram_depth:
+            problems.append(
+                f"windmill '{w.name}': its stream needs {plan.length} words (one period of "
+                f"{plan.period_s:.4g} s at {plan.stream_rate_hz:.6g} Hz) but 'ram_depth' is "
+                f"{farm.ram_depth}: lower 'stream_oversampling' or 'stream_rate', or raise 'ram_depth'")
+    if problems:
+        raise ConfigError(problems)
+
+    nearest_km = min(w.range_km for w in farm.windmills)
+    streams = []
+    for w, plan in zip(farm.windmills, plans):
+        period = modulation(w, stream_times(plan, w), farm.radar.wavelength_m)
+        i, q, scale, snr = quantise(period)
+        streams.append(WindmillStream(
+            w, plan, period, i, q, scale, snr,
+            delay_samples=delay_samples(w.range_km, farm.sample_rate_hz),
+            relative_amplitude=(nearest_km / w.range_km) ** 2))
+    streams.sort(key=lambda s: (s.delay_samples, s.windmill.range_km))
+
+    # g_l ∝ K_l / scale_l: one stream word of windmill l is worth 1/scale_l of its
+    # modulation. The loudest windmill's peak reaches output_gain_db.
+    per_word = np.array([s.relative_amplitude / s.scale for s in streams])
+    level = 10 ** (farm.output_gain_db / 20.0)
+    for s, amplitude in zip(streams, per_word):
+        s.gain = float(amplitude / per_word.max() * level)
+        s.gain_word = round(s.gain * (1 << fx.GAIN_FRAC))
+        if s.gain_word > fx.GAIN.max:
+            problems.append(f"windmill '{s.windmill.name}': its gain {s.gain:.4g} exceeds the gain "
+                            f"register's {fx.GAIN.max / (1 << fx.GAIN_FRAC):.4g}: lower 'output_gain_db'")
+
+    taps = []
+    for s in streams:
+        if not taps or taps[-1]["delay_samples"] != s.delay_samples:
+            previous = taps[-1]["delay_samples"] if taps else 0
+            taps.append({"delay_samples": s.delay_samples,
+                         "increment_samples": s.delay_samples - previous, "windmills": []})
+        taps[-1]["windmills"].append(s.windmill.name)
+        s.tap = len(taps) - 1
+    if problems:
+        raise ConfigError(problems)
+    return FarmStreams(farm, streams, taps)

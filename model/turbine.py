@@ -1,0 +1,142 @@
+"""Physics of one windmill: the complex modulation m(t) of seed section 2.5.
+
+Geometry (seed eq. 2.21, 2.22): the blade direction is e_b = (−sin β, cos β),
+β = 0 with the blade pointing up. The line of sight lies in the rotor plane
+when ``rotor_angle`` = 0; a scatterer at radius r is ``ΔR = −r·cos(rotor_angle)·
+sin β`` nearer than the hub (eq. 2.17) and its phase is ``φ = phase_start −
+4π·ΔR/λ``. The sign differs from eq. 2.18 as printed: with it, eq. 2.10, the
+wire integral eq. 2.20 and the measurements of section 4.2 agree (a blade
+moving towards the radar has positive Doppler).
+
+The rotation angle is ``β_b(t) = 2π·rpm·t/60 + start_angle + b·2π/num_blades``
+(eq. 2.16 corrected: as printed it turns faster for lower rpm).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .config import BladeFlash, WeightTable, Windmill
+
+__all__ = ["blade_angles", "modulation", "max_doppler_hz", "point_weights",
+           "shadow_factor", "wire_return", "CHUNK_SAMPLES"]
+
+#: Samples evaluated at a time: bounds the (scatterers × blades × samples) work array.
+CHUNK_SAMPLES = 1 << 14
+
+
+def blade_angles(windmill: Windmill, t_s: np.ndarray) -> np.ndarray:
+    """β_b(t) in radians, shape (num_blades, len(t)) (eq. 2.16, corrected)."""
+    omega = 2 * np.pi * windmill.rpm / 60.0
+    offsets = np.deg2rad(windmill.start_angle_deg) + 2 * np.pi * np.arange(windmill.num_blades) / windmill.num_blades
+    return omega * np.asarray(t_s, dtype=float)[None, :] + offsets[:, None]
+
+
+def _wrap_pi(angle):
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+def point_weights(weighting, beta: np.ndarray) -> np.ndarray | None:
+    """w_k(β) of eq. 2.19 for every scatterer: shape (rows, *beta.shape), rows = 1 or num_rcs."""
+    if weighting is None:
+        return None
+    if isinstance(weighting, BladeFlash):
+        peak = 10 ** (weighting.gain_db / 20.0) - 1.0
+        sigma = np.deg2rad(weighting.width_deg) / (2 * np.sqrt(2 * np.log(2)))
+        bump = sum(np.exp(-0.5 * (_wrap_pi(beta - np.deg2rad(a)) / sigma) ** 2)
+                   for a in weighting.angle_deg)
+        return (1.0 + peak * bump)[None]
+    if isinstance(weighting, WeightTable):
+        table = weighting.weights
+        columns = table.shape[1]
+        x = (beta % (2 * np.pi)) * (columns / (2 * np.pi))
+        j0 = np.floor(x).astype(np.int64) % columns
+        frac = x - np.floor(x)
+        return table[:, j0] * (1.0 - frac) + table[:, (j0 + 1) % columns] * frac
+    raise TypeError(f"unknown weighting {weighting!r}")
+
+
+def shadow_factor(windmill: Windmill, beta: np.ndarray) -> np.ndarray | None:
+    """Amplitude factor of the tower's shadow on a blade at angle β (180° = blade down).
+
+    A raised-cosine dip of ``shadow_width_deg`` whose centre attenuates the
+    blade's RCS by ``shadow_depth_db`` (seed Fig. 4.6: the shaded area at
+    negative Doppler, when a blade passes behind the mast).
+    """
+    tower = windmill.tower
+    if tower is None or tower.shadow_width_deg <= 0:
+        return None
+    half = np.deg2rad(tower.shadow_width_deg) / 2
+    offset = np.abs(_wrap_pi(beta - np.pi))
+    depth = 1.0 - 10 ** (-tower.shadow_depth_db / 20.0)
+    dip = np.where(offset < half, np.cos(np.pi / 2 * offset / half) ** 2, 0.0)
+    return 1.0 - depth * dip
+
+
+def wire_return(windmill: Windmill, beta: np.ndarray, wavelength_m: float) -> np.ndarray:
+    """Closed form of eq. 2.20 for a wire from r_min to r_max, per blade angle.
+
+    ∫ α·e^{i·q·r} dr over [r_min, r_max] with q = 4π/λ·cos(θ)·sin β gives
+    α·L·e^{i·q·r_mid}·sinc(q·L/2): a sinc about the wire's mid-point; eq. 2.23
+    is the case r_min = 0. θ = rotor_angle + wire_view_angle. The flash (q = 0)
+    comes when the blade is perpendicular to the line of sight.
+    """
+    wire = windmill.wire
+    length = wire.radius_max_m - wire.radius_min_m
+    mid = 0.5 * (wire.radius_max_m + wire.radius_min_m)
+    theta = np.deg2rad(windmill.rotor_angle_deg + wire.view_angle_deg)
+    q = 4 * np.pi / wavelength_m * np.cos(theta) * np.sin(beta)
+    # np.sinc(x) is sin(πx)/(πx)
+    return (wire.reflectivity * length * np.sinc(q * length / (2 * np.pi)) *
+            np.exp(1j * (np.deg2rad(wire.phase_offset_deg) + q * mid)))
+
+
+def _modulation_chunk(windmill: Windmill, t_s: np.ndarray, wavelength_m: float) -> np.ndarray:
+    beta = blade_angles(windmill, t_s)                      # (B, n)
+    total = np.zeros(t_s.shape, dtype=complex)
+    shadow = shadow_factor(windmill, beta)
+    if windmill.num_rcs:
+        k = 4 * np.pi / wavelength_m * np.cos(np.deg2rad(windmill.rotor_angle_deg))
+        sin_beta = np.sin(beta)
+        # eq. 2.17–2.19: sqrt(rcs)·w(β)·exp(i(phase_start + 4π r cos(ra) sin β / λ))
+        phase = (k * windmill.radius_m)[:, None, None] * sin_beta[None]      # (K, B, n)
+        terms = np.exp(1j * phase)
+        weights = point_weights(windmill.weighting, beta)
+        if weights is not None:
+            terms *= weights
+        amplitude = np.sqrt(windmill.rcs_m2) * np.exp(1j * np.deg2rad(windmill.phase_start_deg))
+        per_blade = np.tensordot(amplitude, terms, axes=(0, 0))              # (B, n)
+        if shadow is not None:
+            per_blade *= shadow
+        total += per_blade.sum(axis=0)
+    if windmill.wire is not None:
+        wires = wire_return(windmill, beta, wavelength_m)
+        if shadow is not None:
+            wires *= shadow
+        total += wires.sum(axis=0)
+    if windmill.tower is not None and windmill.tower.rcs_m2 > 0:
+        total += np.sqrt(windmill.tower.rcs_m2) * np.exp(1j * np.deg2rad(windmill.tower.phase_deg))
+    return total
+
+
+def modulation(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
+    """m(t) of eq. 2.15: the sum over blades and scatterers (plus wire and tower), complex128."""
+    t_s = np.asarray(t_s, dtype=float)
+    out = np.empty(t_s.shape, dtype=complex)
+    flat_t, flat_out = t_s.reshape(-1), out.reshape(-1)
+    for start in range(0, flat_t.size, CHUNK_SAMPLES):
+        stop = start + CHUNK_SAMPLES
+        flat_out[start:stop] = _modulation_chunk(windmill, flat_t[start:stop], wavelength_m)
+    return out
+
+
+def max_doppler_hz(windmill: Windmill, wavelength_m: float) -> float:
+    """Largest Doppler of the windmill: 2·ω·r·cos(angle)/λ over its scatterers and wire tip."""
+    omega = 2 * np.pi * windmill.rpm / 60.0
+    best = 0.0
+    if windmill.num_rcs:
+        best = 2 * omega * float(np.max(windmill.radius_m)) * abs(np.cos(np.deg2rad(windmill.rotor_angle_deg))) / wavelength_m
+    if windmill.wire is not None:
+        theta = np.deg2rad(windmill.rotor_angle_deg + windmill.wire.view_angle_deg)
+        best = max(best, 2 * omega * windmill.wire.radius_max_m * abs(np.cos(theta)) / wavelength_m)
+    return float(best)

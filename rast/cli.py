@@ -1,0 +1,106 @@
+"""The ``rast`` command: streams, previews and, from the gateware side, Verilog."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from rast.model.config import ConfigError, load_config
+
+
+def _print_streams(farm_streams) -> None:
+    header = f"{'windmill':<14}{'range km':>9}{'rpm':>6}{'words':>9}{'rate Hz':>11}{'fmax Hz':>9}{'delay':>7}{'gain':>8}{'SNR dB':>8}"
+    print(header)
+    for s in farm_streams.streams:
+        w = s.windmill
+        print(f"{w.name:<14}{w.range_km:>9.3f}{w.rpm:>6g}{s.plan.length:>9}{s.plan.stream_rate_hz:>11.1f}"
+              f"{s.plan.max_doppler_hz:>9.0f}{s.delay_samples:>7}{s.gain:>8.4f}{s.snr_db:>8.1f}")
+
+
+def cmd_stream(args) -> int:
+    from rast.model.ramfiles import write_farm_files
+    from rast.model.stream import build_farm_streams
+
+    farm = load_config(args.config)
+    farm_streams = build_farm_streams(farm)
+    written = write_farm_files(farm_streams, args.out)
+    _print_streams(farm_streams)
+    print(f"wrote {len(written)} files to {Path(args.out).resolve()}:")
+    for name in sorted(written):
+        print(f"  {written[name]}")
+    return 0
+
+
+def cmd_preview(args) -> int:
+    from rast.model.plot import save_preview
+    from rast.model.radar import receive, spectrogram
+    from rast.model.stream import build_farm_streams
+
+    farm = load_config(args.config)
+    farm_streams = build_farm_streams(farm) if args.replay else None
+    t, bins, samples = receive(farm, args.seconds, farm_streams)
+    cpi_s = farm.radar.cpi_ms * 1e-3
+    spectra = [spectrogram(row, farm.radar.prf_hz, cpi_s, overlap=args.overlap) for row in samples]
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    # Draw into a temporary file and move it into place: the PNG appears whole or not at all.
+    fd, tmp = tempfile.mkstemp(suffix=".png", dir=out.parent)
+    os.close(fd)
+    try:
+        save_preview(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range)
+        os.replace(tmp, out)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    res = spectra[0].resolution_hz
+    print(f"{len(bins)} range bin(s), {t.size} pulses, {spectra[0].times_s.size} CPIs, "
+          f"Doppler resolution {res:g} Hz{' (replayed stream words)' if args.replay else ''}")
+    print(f"wrote {out.resolve()}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="rast", description="RAdar Simulation of wind Turbines")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("stream", help="write the modulation streams, RAM files and manifest")
+    p.add_argument("config", help="TOML config (one windmill or a farm)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=cmd_stream)
+
+    p = sub.add_parser("preview", help="draw the micro-Doppler spectrogram the radar will see")
+    p.add_argument("config", help="TOML config (one windmill or a farm)")
+    p.add_argument("--out", required=True, help="PNG file to write")
+    p.add_argument("--seconds", type=float, default=10.0, help="radar time to simulate (default 10)")
+    p.add_argument("--overlap", type=float, default=0.0,
+                   help="fraction of a CPI shared by consecutive frames (default 0, as a radar)")
+    p.add_argument("--dynamic-range", type=float, default=60.0, help="colour scale depth in dB")
+    p.add_argument("--replay", action="store_true",
+                   help="show the quantised stream words as the RTS replays them, not the physics")
+    p.set_defaults(func=cmd_preview)
+
+    for module_name in ("verilog", "cosim", "build", "load"):
+        try:
+            module = __import__(f"rast.{module_name}", fromlist=["add_arguments", "run"])
+        except ImportError:
+            continue
+        p = sub.add_parser(module_name, help=(module.__doc__ or "").strip().splitlines()[0])
+        module.add_arguments(p)
+        p.set_defaults(func=module.run)
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args) or 0
+    except ConfigError as error:
+        print(f"rast {args.command}: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
