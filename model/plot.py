@@ -42,7 +42,8 @@ def save_preview(farm, bins: list[RangeBin], spectra: list[Spectrogram], path, *
                  dynamic_range_db: float = 60.0, title: str | None = None) -> None:
     """One panel per range bin, a common dB scale, ±max Doppler lines per windmill."""
     reference = max(float(s.power_db.max()) for s in spectra)
-    fig, axes = plt.subplots(len(bins), 1, figsize=(9, 3.6 * len(bins) + 0.6), squeeze=False)
+    fig, axes = plt.subplots(len(bins), 1, figsize=(9, 3.2 * len(bins) + 0.8), squeeze=False,
+                             layout="constrained")
     wavelength = farm.radar.wavelength_m
     image = None
     for ax, b, spec in zip(axes[:, 0], bins, spectra):
@@ -57,6 +58,6 @@ def save_preview(farm, bins: list[RangeBin], spectra: list[Spectrogram], path, *
     radar = farm.radar
     fig.suptitle(title or (f"{radar.frequency_mhz / 1e3:g} GHz radar, PRF {radar.prf_hz / 1e3:g} kHz, "
                            f"CPI {radar.cpi_ms:g} ms"), fontsize=11)
-    fig.colorbar(image, ax=axes[:, 0].tolist(), label="power (dB rel. peak)", pad=0.02)
+    fig.colorbar(image, ax=axes[:, 0].tolist(), label="power (dB rel. peak)", shrink=min(1.0, 0.4 + 0.3 * len(bins)))
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -1,0 +1,128 @@
+"""Streams: seamless periods, quantisation, RAM files read back as integers, the CLI end to end."""
+
+import json
+
+import numpy as np
+import pytest
+
+from rast.cli import main
+from rast.model import fixedpoint as fx
+from rast.model.config import parse_config
+from rast.model.ramfiles import read_bin, read_hex, write_farm_files
+from rast.model.stream import build_farm_streams, plan_stream, quantise, stream_times
+from rast.model.turbine import modulation
+
+
+def farm(rate=None, **top):
+    windmill = {"name": "w", "range": 2.0, "num_blades": 3, "rpm": 15, "num_rcs": 2,
+                "radius": [26.0, 10.0], "rsc": [1.0, 0.5], "phase_start": [0, 45]}
+    if rate is not None:
+        windmill["stream_rate"] = rate
+    return parse_config({"sample_rate": 20, "radar_frequency": 5350, **top, "windmill": [windmill]})
+
+
+@pytest.mark.parametrize("rate", [None, 10_000.0, "rts"])
+def test_stream_holds_exactly_one_period(rate):
+    f = farm(rate)
+    w = f.windmills[0]
+    plan = plan_stream(w, f)
+    t = stream_times(plan, w)
+    # The word after the last is the first again: sampling one step further
+    # lands on t = T_sim, where m repeats (eq. 2.13).
+    step = w.period_s / plan.length
+    m = modulation(w, np.append(t, t[-1] + step), f.radar.wavelength_m)
+    assert m[-1] == pytest.approx(m[0], abs=1e-9)
+    # ... and the phase step across the wrap is like the steps inside the period.
+    steps = np.abs(np.diff(m))
+    assert steps[-1] <= steps.max() + 1e-12
+    assert plan.length * step == pytest.approx(w.period_s)
+
+
+def test_automatic_rate_is_at_least_the_oversampling_factor():
+    f = farm(stream_oversampling=4)
+    plan = plan_stream(f.windmills[0], f)
+    assert plan.stream_rate_hz >= 4 * plan.max_doppler_hz
+    assert plan.stream_rate_hz < 4 * plan.max_doppler_hz + 1 / f.windmills[0].period_s + 1e-9
+    assert plan.length == pytest.approx(plan.stream_rate_hz * plan.period_s)
+
+
+def test_forced_rate_is_moved_to_a_seamless_one():
+    f = farm(10_000.0)
+    plan = plan_stream(f.windmills[0], f)
+    assert plan.length == round(10_000 * 60 / (15 * 3))
+    assert plan.length / plan.stream_rate_hz == pytest.approx(60 / 45)
+    assert plan.phase_increment == round(plan.stream_rate_hz / 20e6 * 2**32)
+
+
+def test_rts_mode_is_one_word_per_sample():
+    f = farm("rts", ram_depth=1 << 26)
+    plan = plan_stream(f.windmills[0], f)
+    assert plan.length == round(60 / 45 * 20e6)
+    assert plan.phase_increment == 1 << fx.PHASE_FRAC_BITS
+
+
+def test_quantisation_uses_full_scale_and_reports_snr():
+    rng = np.random.default_rng(1)
+    period = rng.normal(size=5000) + 1j * rng.normal(size=5000)
+    i, q, scale, snr = quantise(period)
+    assert max(np.abs(i).max(), np.abs(q).max()) == fx.STREAM.max
+    np.testing.assert_array_equal(i, np.round(period.real * scale).astype(np.int64))
+    error = (i - period.real * scale) ** 2 + (q - period.imag * scale) ** 2
+    assert snr == pytest.approx(10 * np.log10(np.sum(np.abs(period * scale) ** 2) / error.sum()))
+    # Uniform rounding error of 1/12 LSB² per component: about 6 dB per bit.
+    assert 75 < snr < 95
+
+
+def test_gain_carries_relative_amplitude_and_scale():
+    f = parse_config({"sample_rate": 20, "radar_frequency": 5350, "windmill": [
+        {"name": "near", "range": 2.0, "num_blades": 3, "rpm": 15, "radius": [26.0], "rsc": [1.0]},
+        {"name": "far", "range": 4.0, "num_blades": 3, "rpm": 15, "radius": [26.0], "rsc": [4.0]}]})
+    fs = build_farm_streams(f)
+    near, far = fs.streams
+    # far: 4× the RCS (2× amplitude), twice the range (1/4 amplitude): half the near one's return.
+    assert far.scale == pytest.approx(near.scale / 2)
+    # A word of windmill l stands for 1/scale_l of its modulation, so gain·scale ∝ K_l ∝ 1/R².
+    k = [s.gain * s.scale for s in fs.streams]
+    assert k[1] / k[0] == pytest.approx(0.25)
+    assert far.gain == pytest.approx(0.5)
+    assert near.gain == 1.0 and near.gain_word == 1 << fx.GAIN_FRAC
+
+
+def test_files_read_back_as_the_same_integers(tmp_path):
+    fs = build_farm_streams(farm())
+    written = write_farm_files(fs, tmp_path)
+    s = fs.streams[0]
+    words = read_hex(written["w.hex"])
+    assert words.size == s.plan.length
+    np.testing.assert_array_equal(words, read_bin(written["w.bin"]))
+    i, q = fx.unpack_iq(words)
+    np.testing.assert_array_equal(i, s.i)
+    np.testing.assert_array_equal(q, s.q)
+    assert all(len(line) == 8 for line in written["w.hex"].read_text().splitlines())
+    np.testing.assert_array_equal(np.load(written["w.npy"]), s.period)
+    manifest = json.loads(written["manifest.json"].read_text())
+    entry = manifest["windmills"][0]
+    assert entry["length"] == s.plan.length and entry["hex_file"] == "w.hex"
+    assert entry["gain_word"] == manifest["registers"]["channels"][0]["gain"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".rast-staging")]
+
+
+def test_pack_puts_i_in_the_low_half():
+    word = fx.pack_iq(np.array([-2]), np.array([3]))
+    assert int(word[0]) == (3 << 16) | 0xFFFE
+
+
+def test_cli_stream_and_preview_end_to_end(tmp_path, capsys):
+    config = tmp_path / "farm.toml"
+    config.write_text('sample_rate = 20\nradar_frequency = 5350\n'
+                      '[[windmill]]\nname = "a"\nrange = 2.0\nnum_blades = 3\nrpm = 15\nradius = [26.0]\nrsc = [1.0]\n'
+                      '[[windmill]]\nname = "b"\nrange = 2.6\nnum_blades = 3\nrpm = 20\nradius = [20.0]\nrsc = [1.0]\n')
+    out = tmp_path / "out"
+    assert main(["stream", str(config), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        "a.bin", "a.hex", "a.npy", "b.bin", "b.hex", "b.npy", "manifest.json"]
+    assert "wrote 7 files" in capsys.readouterr().out
+    png = tmp_path / "pic.png"
+    assert main(["preview", str(config), "--out", str(png), "--seconds", "1"]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "2 range bin(s)" in capsys.readouterr().out
