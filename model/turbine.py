@@ -18,11 +18,11 @@ import numpy as np
 
 from .config import BladeFlash, WeightTable, Windmill
 
-__all__ = ["blade_angles", "modulation", "max_doppler_hz", "point_weights",
+__all__ = ["blade_angles", "modulation", "modulation_reference", "max_doppler_hz", "point_weights",
            "shadow_factor", "wire_return", "CHUNK_SAMPLES"]
 
 #: Samples evaluated at a time: bounds the (scatterers × blades × samples) work array.
-CHUNK_SAMPLES = 1 << 14
+CHUNK_SAMPLES = 1 << 12
 
 
 def blade_angles(windmill: Windmill, t_s: np.ndarray) -> np.ndarray:
@@ -91,21 +91,42 @@ def wire_return(windmill: Windmill, beta: np.ndarray, wavelength_m: float) -> np
             np.exp(1j * (np.deg2rad(wire.phase_offset_deg) + q * mid)))
 
 
+def _unit_phasors(turns: np.ndarray):
+    """cos and sin of 2π·turns, accurate to about 3e-7 (float32 after exact reduction).
+
+    The phase in turns is reduced to [−½, ½] in float64 first, so the large
+    phases of long blades (thousands of turns) lose nothing; the trigonometry
+    then runs in float32, about ten times faster than in float64. The error
+    (≲ 3e-7 of each scatterer's amplitude, below −110 dB) is far under the
+    16-bit stream word's quantisation noise (−98 dB).
+    """
+    reduced = turns - np.rint(turns)
+    angle = (reduced * (2 * np.pi)).astype(np.float32)
+    return np.cos(angle), np.sin(angle)
+
+
 def _modulation_chunk(windmill: Windmill, t_s: np.ndarray, wavelength_m: float) -> np.ndarray:
     beta = blade_angles(windmill, t_s)                      # (B, n)
     total = np.zeros(t_s.shape, dtype=complex)
     shadow = shadow_factor(windmill, beta)
     if windmill.num_rcs:
-        k = 4 * np.pi / wavelength_m * np.cos(np.deg2rad(windmill.rotor_angle_deg))
-        sin_beta = np.sin(beta)
-        # eq. 2.17–2.19: sqrt(rcs)·w(β)·exp(i(phase_start + 4π r cos(ra) sin β / λ))
-        phase = (k * windmill.radius_m)[:, None, None] * sin_beta[None]      # (K, B, n)
-        terms = np.exp(1j * phase)
+        # eq. 2.17–2.19: sqrt(rcs)·w(β)·exp(i(phase_start + 4π·r·cos(ra)·sin β/λ)),
+        # the phase written in turns: 2·r·cos(ra)·sin β/λ.
+        k_turns = 2 / wavelength_m * np.cos(np.deg2rad(windmill.rotor_angle_deg))
+        turns = (k_turns * windmill.radius_m)[:, None, None] * np.sin(beta)[None]   # (K, B, n)
+        cos, sin = _unit_phasors(turns)
         weights = point_weights(windmill.weighting, beta)
-        if weights is not None:
-            terms *= weights
+        if weights is not None and weights.shape[0] > 1:      # one weight row per scatterer
+            weights32 = weights.astype(np.float32)
+            cos, sin = cos * weights32, sin * weights32
         amplitude = np.sqrt(windmill.rcs_m2) * np.exp(1j * np.deg2rad(windmill.phase_start_deg))
-        per_blade = np.tensordot(amplitude, terms, axes=(0, 0))              # (B, n)
+        shape = cos.shape[1:]
+        cos, sin = cos.reshape(len(amplitude), -1), sin.reshape(len(amplitude), -1)
+        re = amplitude.real @ cos - amplitude.imag @ sin
+        im = amplitude.imag @ cos + amplitude.real @ sin
+        per_blade = (re + 1j * im).reshape(shape)                                  # (B, n)
+        if weights is not None and weights.shape[0] == 1:     # one row for all scatterers
+            per_blade *= weights[0]
         if shadow is not None:
             per_blade *= shadow
         total += per_blade.sum(axis=0)
@@ -140,3 +161,31 @@ def max_doppler_hz(windmill: Windmill, wavelength_m: float) -> float:
         theta = np.deg2rad(windmill.rotor_angle_deg + windmill.wire.view_angle_deg)
         best = max(best, 2 * omega * windmill.wire.radius_max_m * abs(np.cos(theta)) / wavelength_m)
     return float(best)
+
+
+def modulation_reference(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
+    """eq. 2.15–2.19 written as read, one blade and one scatterer at a time, all float64.
+
+    Slow and plain: the yardstick that :func:`modulation` is tested and
+    benchmarked against.
+    """
+    t_s = np.asarray(t_s, dtype=float)
+    total = np.zeros(t_s.shape, dtype=complex)
+    omega = 2 * np.pi * windmill.rpm / 60.0
+    rotor = np.deg2rad(windmill.rotor_angle_deg)
+    for b in range(windmill.num_blades):
+        beta = omega * t_s + np.deg2rad(windmill.start_angle_deg) + b * 2 * np.pi / windmill.num_blades
+        shadow = shadow_factor(windmill, beta)
+        blade = np.zeros(t_s.shape, dtype=complex)
+        for k in range(windmill.num_rcs):
+            delta_r = -windmill.radius_m[k] * np.cos(rotor) * np.sin(beta)
+            phi = np.deg2rad(windmill.phase_start_deg[k]) - 4 * np.pi * delta_r / wavelength_m
+            weights = point_weights(windmill.weighting, beta)
+            w = 1.0 if weights is None else weights[k if weights.shape[0] > 1 else 0]
+            blade += np.sqrt(windmill.rcs_m2[k]) * w * np.exp(1j * phi)
+        if windmill.wire is not None:
+            blade += wire_return(windmill, beta[None], wavelength_m)[0]
+        total += blade if shadow is None else blade * shadow
+    if windmill.tower is not None and windmill.tower.rcs_m2 > 0:
+        total += np.sqrt(windmill.tower.rcs_m2) * np.exp(1j * np.deg2rad(windmill.tower.phase_deg))
+    return total
