@@ -1,0 +1,167 @@
+"""The wind-farm replay block of seed Fig. 2.2: N channels, one output."""
+
+from amaranth.hdl import Module, Signal, Mux, signed, unsigned
+from amaranth.lib import wiring, stream
+from amaranth.lib.wiring import In, Out
+
+from .iq import IQ
+from .cmult import ComplexMultiplier
+from .delay_line import DelayLine
+from .stream_replay import StreamReplay
+from .registers import BusSignature, RegisterFile
+from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, STREAM_WIDTH, OUTPUT_WIDTH,
+                                PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, SEGMENT_LATENCY)
+from ..model.regmap import register_map, ChannelInit
+
+__all__ = ["WindFarmReplay"]
+
+
+class WindFarmReplay(wiring.Component):
+    """Replay block: delay chain, per-channel stream x gain, sum, saturation.
+
+    The data path advances once per accepted input sample; each input sample
+    gives exactly one output sample, ``latency`` (plus the programmed delays)
+    samples later, whatever the gaps in ``i.valid`` or ``o.ready``.
+    Bit-exact model: :class:`rast.model.datapath.ReplayModel`.
+
+    Parameters
+    ----------
+    channels : int
+        N, 1 to 64.
+    stream_depth, max_delay, max_increment, interpolate, cmult_form :
+        See :class:`rast.model.fixedpoint.ReplayContract`.
+    init : list of ChannelInit, optional
+        Power-up streams (bank 0) and register values.
+
+    Members
+    -------
+    i : In(stream.Signature(IQ(16)))
+    o : Out(stream.Signature(IQ(16)))
+    bus : In(BusSignature(addr_width))
+        Register access (map: ``rast.model.regmap``, ``docs/registers.md``).
+    overflow : Out(1)
+        Sticky saturation flag (cleared by reading STATUS).
+    """
+
+    def __init__(self, channels=4, *, stream_depth=4096, max_delay=4094, max_increment=1022,
+                 interpolate=False, cmult_form="4mult", init=None):
+        self._contract = ReplayContract(channels=channels, stream_depth=stream_depth,
+                                        max_delay=max_delay, max_increment=max_increment,
+                                        interpolate=interpolate, cmult_form=cmult_form)
+        init = list(init or [])
+        if len(init) > channels:
+            raise ValueError(f"Initial contents must be given for at most {channels} channels, "
+                             f"not {len(init)}")
+        for k, ini in enumerate(init):
+            if not isinstance(ini, ChannelInit):
+                raise TypeError(f"Initial contents of channel {k} must be a ChannelInit, not {ini!r}")
+            if len(ini.words) > stream_depth:
+                raise ValueError(f"Initial stream of channel {k} must have at most {stream_depth} "
+                                 f"words, not {len(ini.words)}")
+        self._init = init + [ChannelInit()] * (channels - len(init))
+        self._rmap = register_map(self._contract, self._init)
+        super().__init__({
+            "i": In(stream.Signature(IQ(INPUT_WIDTH))),
+            "o": Out(stream.Signature(IQ(OUTPUT_WIDTH))),
+            "bus": In(BusSignature(self._rmap.addr_width)),
+            "overflow": Out(1),
+        })
+
+    @property
+    def contract(self) -> ReplayContract:
+        return self._contract
+
+    @property
+    def register_map(self):
+        return self._rmap
+
+    @property
+    def channels(self):
+        return self._contract.channels
+
+    @property
+    def latency(self):
+        """Fixed latency L (samples): ``3*N + 3 + cmult latency``."""
+        return self._contract.latency
+
+    def elaborate(self, platform):
+        m = Module()
+        c = self._contract
+        N = c.channels
+        m.submodules.regs = regs = RegisterFile(self._rmap)
+        wiring.connect(m, wiring.flipped(self.bus), regs.bus)
+        m.d.comb += self.overflow.eq(regs.overflow)
+
+        ce = Signal()
+        m.d.comb += [self.i.ready.eq(~self.o.valid | self.o.ready),
+                     ce.eq(self.i.valid & self.i.ready)]
+        with m.If(ce):
+            m.d.sync += self.o.valid.eq(1)
+        with m.Elif(self.o.ready):
+            m.d.sync += self.o.valid.eq(0)
+
+        SW = c.sum_width
+        prev = self.i.payload.as_value()
+        chain = None
+        for l in range(N):
+            seg = DelayLine(2 * INPUT_WIDTH, c.max_segment_delay(l))
+            sr = StreamReplay(c.stream_depth, interpolate=c.interpolate,
+                              init=self._init[l].words, init_length=self._init[l].length,
+                              init_increment=self._init[l].phase_increment & 0xFFFFFFFF)
+            cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
+            m.submodules[f"seg{l}"] = seg
+            m.submodules[f"stream{l}"] = sr
+            m.submodules[f"cmult{l}"] = cm
+            m.d.comb += [
+                seg.en.eq(ce), seg.i.eq(prev), seg.delay.eq(regs.delay[l]),
+                sr.en.eq(ce), sr.length.eq(regs.length[l]), sr.increment.eq(regs.increment[l]),
+                sr.swap_req.eq(regs.swap_req[l]), sr.swap_force.eq(regs.swap_force[l]),
+                sr.wr_en.eq(regs.wr_en[l]), sr.wr_bank.eq(regs.wr_bank[l]),
+                sr.wr_addr.eq(regs.wr_addr), sr.wr_data.eq(regs.wr_data),
+                regs.pending_next[l].eq(sr.pending_next), regs.bank_next[l].eq(sr.bank_next),
+                cm.en.eq(ce), cm.a.eq(seg.o), cm.b.eq(sr.o),
+            ]
+            prev = seg.o
+
+            # Gain (0 when disabled): registered product, registered rounding.
+            geff = Signal(regs.gain[l].shape(), name=f"geff{l}")
+            m.d.comb += geff.eq(Mux(regs.enable[l], regs.gain[l], 0))
+            q = []
+            for part in ("re", "im"):
+                prod = Signal(signed(cm.o_width + geff.shape().width + 1), name=f"gprod{l}_{part}")
+                qv = Signal(signed(SCALED_WIDTH), name=f"q{l}_{part}")
+                with m.If(ce):
+                    m.d.sync += [prod.eq(getattr(cm.o, part) * geff),
+                                 qv.eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)]
+                q.append(qv)
+
+            # Systolic adder chain: SEGMENT_LATENCY registers per link equalise
+            # the delay chain's per-segment latency.
+            s = [Signal(signed(SW), name=f"sum{l}_{p}") for p in ("re", "im")]
+            for k in range(2):
+                if chain is None:
+                    src = 0
+                else:
+                    src = chain[k]
+                    for stage in range(SEGMENT_LATENCY - 1):
+                        d = Signal(signed(SW), name=f"link{l}_{stage}_{k}")
+                        with m.If(ce):
+                            m.d.sync += d.eq(src)
+                        src = d
+                with m.If(ce):
+                    m.d.sync += s[k].eq(src + q[k])
+            chain = s
+
+        lo, hi = -(1 << (OUTPUT_WIDTH - 1)), (1 << (OUTPUT_WIDTH - 1)) - 1
+        sat = []
+        for k, part in enumerate(("re", "im")):
+            v = chain[k]
+            over = Signal(name=f"over_{part}")
+            under = Signal(name=f"under_{part}")
+            m.d.comb += [over.eq(v > hi), under.eq(v < lo)]
+            with m.If(ce):
+                m.d.sync += getattr(self.o.payload, part).eq(
+                    Mux(over, hi, Mux(under, lo, v)))
+            sat.append(over | under)
+        m.d.comb += regs.overflow_set.eq(ce & (sat[0] | sat[1]))
+        return m

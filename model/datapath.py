@@ -1,0 +1,287 @@
+"""Bit-exact model of the replay block (``rast.hdl.replay_top.WindFarmReplay``).
+
+Integer numpy (int64) throughout. Time is counted in *steps*: step ``n`` is the
+``n``-th accepted input sample, and output sample ``n`` is the one the block
+emits for it (one out per one in, whatever the gaps in ``valid``). A register
+write issued after step ``n-1`` was accepted and before step ``n`` is accepted
+takes effect at step ``n`` (in the gateware: a write in the same clock cycle
+as an input transfer counts as after that transfer).
+
+Equations (N channels, l = 0..N-1, all values visible *during* a step):
+
+* delay chain: ``t_l[n] = t_{l-1}[n - 3 - d_l[n-3]]`` with ``t_{-1} = x``
+  (``SEGMENT_LATENCY`` = 3; ``d_l`` the applied DELAY of segment l),
+* stream word at the multiplier: ``w_l[n] = word(state_l[n - SL])``
+  (SL = :func:`~rast.model.fixedpoint.stream_latency`),
+* ``p_l[n] = cmult(t_l[n - Lc], w_l[n - Lc])``, ``q_l[n] = gain(p_l[n-2], g_l[n-2])``
+  (``g_l`` = GAIN if enabled else 0),
+* systolic sum ``s_l[n] = s_{l-1}[n-3] + q_l[n-1]``, ``y[n] = saturate(s_{N-1}[n])``.
+
+Hence an echo of channel l appears ``L + sum(d_0..d_l)`` samples after the input,
+``L = 3*N + 3 + Lc``. Everything before step 0 is zero.
+"""
+
+import numpy as np
+
+from .fixedpoint import (ReplayContract, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
+                         INTERP_FRAC_BITS, PHASE_FRAC_BITS, SEGMENT_LATENCY, GAIN_LATENCY,
+                         STREAM_WIDTH, round_half_up, saturate, pack_iq, unpack_iq)
+from .regmap import (register_map, ChannelInit, ID_VALUE, CTRL_ENABLE, CTRL_SWAP)
+
+__all__ = ["cmult", "gain_scale", "interpolate_words", "phase_sequence", "delay_line",
+           "channel_sum", "ReplayModel"]
+
+ONE = 1 << PHASE_FRAC_BITS
+
+
+def cmult(ai, aq, bi, bq, shift=PRODUCT_SHIFT):
+    """Full-precision complex product rounded half up by ``shift`` bits (either form)."""
+    ai, aq, bi, bq = (np.asarray(v, dtype=np.int64) for v in (ai, aq, bi, bq))
+    re = ai * bi - aq * bq
+    im = ai * bq + aq * bi
+    return round_half_up(re, shift), round_half_up(im, shift)
+
+
+def gain_scale(p, g, shift=GAIN_SHIFT):
+    """``round_half_up(p * g, shift)``; ``g`` unsigned gain word."""
+    return round_half_up(np.asarray(p, dtype=np.int64) * np.asarray(g, dtype=np.int64), shift)
+
+
+def interpolate_words(s0, s1, frac32):
+    """Linear interpolation of signed components: ``s0 + rhu((s1-s0)*f, 16)``,
+    ``f`` the top ``INTERP_FRAC_BITS`` of the 32-bit phase fraction."""
+    f = np.asarray(frac32, dtype=np.int64) >> (PHASE_FRAC_BITS - INTERP_FRAC_BITS)
+    s0 = np.asarray(s0, dtype=np.int64)
+    return s0 + round_half_up((np.asarray(s1, dtype=np.int64) - s0) * f, INTERP_FRAC_BITS)
+
+
+def phase_sequence(start, inc, length, n):
+    """Phases (units of 2**-32 words) visible during ``n`` steps from ``start``,
+    free running: ``(start + k*inc) mod (length * 2**32)``."""
+    k = np.arange(n, dtype=np.int64)
+    return (int(start) + k * int(inc)) % (int(length) * ONE)
+
+
+def delay_line(x, d, latency=SEGMENT_LATENCY):
+    """One delay segment: ``out[n] = x[n - latency - d[n - latency]]``, zeros before 0.
+
+    ``d`` is the per-step applied delay (array as long as ``x``)."""
+    x = np.asarray(x, dtype=np.int64)
+    d = np.asarray(d, dtype=np.int64)
+    n = np.arange(len(x))
+    out = np.zeros_like(x)
+    ok = n >= latency
+    src = n[ok] - latency - d[n[ok] - latency]
+    good = src >= 0
+    vals = np.zeros(ok.sum(), dtype=np.int64)
+    vals[good] = x[src[good]]
+    out[ok] = vals
+    return out
+
+
+def channel_sum(q, width=OUTPUT_WIDTH):
+    """Sum of per-channel scaled products ``q`` (shape N x T, already aligned),
+    saturated; returns (y, overflow per step)."""
+    return saturate(np.sum(np.asarray(q, dtype=np.int64), axis=0), width)
+
+
+def _shift(a, k):
+    """``a[n - k]`` with zeros for ``n < k``."""
+    out = np.zeros_like(a)
+    if k < len(a):
+        out[k:] = a[:len(a) - k] if k > 0 else a
+    return out
+
+
+class ReplayModel:
+    """Step-by-step bit-exact model of :class:`WindFarmReplay`.
+
+    Use :meth:`write`/:meth:`read` for register accesses (in the order the
+    host issues them relative to samples) and :meth:`run` to push input
+    samples; :meth:`run` returns the output samples for them.
+    """
+
+    def __init__(self, contract: ReplayContract, inits=None):
+        self.c = c = contract
+        inits = list(inits or []) + [ChannelInit()] * (c.channels - len(inits or []))
+        self.rmap = register_map(c, inits)
+        N = c.channels
+        self.banks = np.zeros((N, 2, c.stream_depth), dtype=np.int64)
+        for l, ini in enumerate(inits):
+            if len(ini.words) > c.stream_depth:
+                raise ValueError(f"Channel {l} initial stream has {len(ini.words)} words, more than "
+                                 f"the stream depth {c.stream_depth}")
+            self.banks[l, 0, :len(ini.words)] = np.asarray(ini.words, dtype=np.int64) & 0xFFFFFFFF
+        self.enable = [int(i.enable) for i in inits]
+        self.len_next = [i.length for i in inits]
+        self.inc_next = [i.phase_increment & (ONE - 1) for i in inits]
+        self.len_act = list(self.len_next)
+        self.inc_act = list(self.inc_next)
+        self.gain = [i.gain & ((1 << 17) - 1) for i in inits]
+        self.delay_next = [min(i.delay, c.max_segment_delay(l)) for l, i in enumerate(inits)]
+        self.delay_act = list(self.delay_next)
+        self.bank = [0] * N
+        self.pending = [0] * N
+        self.phase = [0] * N
+        self.stream_sel = 0
+        self.stream_addr = 0
+        self.overflow = 0
+        self.steps = 0
+        # Per-step histories (lists of arrays, concatenated on demand).
+        self._x = [np.zeros((2, 0), dtype=np.int64)]
+        self._d = [np.zeros((N, 0), dtype=np.int64)]
+        self._g = [np.zeros((N, 0), dtype=np.int64)]
+        self._w = [np.zeros((N, 2, 0), dtype=np.int64)]
+        self._y = [np.zeros((2, 0), dtype=np.int64)]
+
+    # ---- registers -------------------------------------------------------
+    def _swap(self, l):
+        self.bank[l] ^= 1
+        self.len_act[l] = self.len_next[l]
+        self.inc_act[l] = self.inc_next[l]
+        self.phase[l] = 0
+        self.pending[l] = 0
+
+    def write(self, addr, value):
+        r = self.rmap.by_addr(addr)
+        if r is None:
+            return
+        value = int(value) & 0xFFFFFFFF
+        l = r.channel
+
+        def fv(name):
+            f = r.field(name)
+            v = (value >> f.lsb) & ((1 << f.width) - 1)
+            if f.clamp:
+                v = min(max(v, f.clamp[0]), f.clamp[1])
+            return v
+
+        if r.name == "CTRL":
+            self.enable[l] = fv("enable")
+            if not self.enable[l] and (fv("swap") or self.pending[l]):
+                self._swap(l)
+            elif fv("swap"):
+                self.pending[l] = 1
+        elif r.name == "LENGTH":
+            self.len_next[l] = fv("length")
+        elif r.name == "PHASE_INC":
+            self.inc_next[l] = fv("inc")
+        elif r.name == "GAIN":
+            self.gain[l] = fv("gain")
+        elif r.name == "DELAY":
+            self.delay_next[l] = fv("delay")
+        elif r.name == "APPLY":
+            if fv("delays"):
+                self.delay_act = list(self.delay_next)
+        elif r.name == "STREAM_SEL":
+            self.stream_sel = fv("channel")
+        elif r.name == "STREAM_ADDR":
+            self.stream_addr = fv("addr")
+        elif r.name == "STREAM_DATA":
+            s = self.stream_sel
+            if s < self.c.channels and not self.pending[s]:
+                self.banks[s, self.bank[s] ^ 1, self.stream_addr] = value
+            self.stream_addr = (self.stream_addr + 1) % self.c.stream_depth
+
+    def read(self, addr):
+        r = self.rmap.by_addr(addr)
+        if r is None:
+            return 0
+        l = r.channel
+        if r.name == "CTRL":
+            return self.enable[l] | (self.pending[l] << 1) | (self.bank[l] << 2)
+        if r.name == "STATUS":
+            v, self.overflow = self.overflow, 0
+            return v
+        stored = {"LENGTH": lambda: self.len_next[l], "PHASE_INC": lambda: self.inc_next[l],
+                  "GAIN": lambda: self.gain[l], "DELAY": lambda: self.delay_next[l],
+                  "STREAM_SEL": lambda: self.stream_sel, "STREAM_ADDR": lambda: self.stream_addr}
+        if r.name in stored:
+            return stored[r.name]()
+        v = 0
+        for f in r.fields:
+            if f.access == "ro":
+                v |= f.reset << f.lsb
+        return v
+
+    # ---- data path -------------------------------------------------------
+    def _words(self, l, phases, bank_arr, length):
+        idx = phases >> PHASE_FRAC_BITS
+        wi, wq = unpack_iq(bank_arr[idx])
+        if not self.c.interpolate:
+            return wi, wq
+        idx1 = np.where(idx + 1 >= length, 0, idx + 1)
+        w1i, w1q = unpack_iq(bank_arr[idx1])
+        frac = phases & (ONE - 1)
+        return interpolate_words(wi, w1i, frac), interpolate_words(wq, w1q, frac)
+
+    def _advance_streams(self, T):
+        """Stream words produced from the states of the next T steps; updates state."""
+        N = self.c.channels
+        w = np.zeros((N, 2, T), dtype=np.int64)
+        for l in range(N):
+            k = 0
+            while k < T:
+                length, inc, P = self.len_act[l], self.inc_act[l], self.phase[l]
+                n = T - k
+                if self.pending[l] and inc > 0:
+                    # the step during which the wrap happens swaps banks
+                    kw = -((P - length * ONE) // inc)     # ceil((L*ONE - P) / inc)
+                    kw = max(kw - 1, 0)                   # index of that step
+                    n = min(n, kw + 1)
+                    swap_here = (kw + 1) <= (T - k)
+                else:
+                    swap_here = False
+                ph = phase_sequence(P, inc, length, n)
+                wi, wq = self._words(l, ph, self.banks[l, self.bank[l]], length)
+                w[l, 0, k:k + n], w[l, 1, k:k + n] = wi, wq
+                k += n
+                if swap_here:
+                    self._swap(l)
+                else:
+                    self.phase[l] = (P + n * inc) % (length * ONE)
+        return w
+
+    def run(self, xi, xq):
+        """Push input samples (signed ints); return the output samples (yi, yq)."""
+        xi = np.asarray(xi, dtype=np.int64)
+        xq = np.asarray(xq, dtype=np.int64)
+        T = len(xi)
+        c, N = self.c, self.c.channels
+        self._x.append(np.stack([xi, xq]))
+        self._d.append(np.repeat(np.array(self.delay_act, dtype=np.int64)[:, None], T, axis=1))
+        geff = np.array([g if e else 0 for g, e in zip(self.gain, self.enable)], dtype=np.int64)
+        self._g.append(np.repeat(geff[:, None], T, axis=1))
+        self._w.append(self._advance_streams(T))
+        n0 = self.steps
+        self.steps += T
+        y = self._outputs(n0, self.steps)
+        self._y.append(y)
+        sat = y[2]
+        if sat.any():
+            self.overflow = 1
+        return y[0], y[1]
+
+    def _outputs(self, n0, n1):
+        c, N = self.c, self.c.channels
+        x = np.concatenate(self._x, axis=1)
+        d = np.concatenate(self._d, axis=1)
+        g = np.concatenate(self._g, axis=1)
+        w = np.concatenate(self._w, axis=2)
+        self._x, self._d, self._g, self._w = [x], [d], [g], [w]
+        SL, Lc = c.stream_latency, c.cmult_latency
+        t = x
+        total = np.zeros((2, n1), dtype=np.int64)
+        for l in range(N):
+            t = np.stack([delay_line(t[0], d[l]), delay_line(t[1], d[l])])
+            ws = np.stack([_shift(w[l, 0], SL), _shift(w[l, 1], SL)])
+            pi, pq = cmult(_shift(t[0], Lc), _shift(t[1], Lc), _shift(ws[0], Lc), _shift(ws[1], Lc))
+            gl = _shift(g[l], GAIN_LATENCY)
+            qi = gain_scale(_shift(pi, GAIN_LATENCY), gl)
+            qq = gain_scale(_shift(pq, GAIN_LATENCY), gl)
+            k = 1 + SEGMENT_LATENCY * (N - 1 - l)
+            total[0] += _shift(qi, k)
+            total[1] += _shift(qq, k)
+        yi, oi = saturate(total[0][n0:n1])
+        yq, oq = saturate(total[1][n0:n1])
+        return np.stack([yi, yq, (oi | oq).astype(np.int64)])

@@ -1,0 +1,314 @@
+"""The replay block's register map, described once.
+
+The Amaranth register file (``rast.hdl.registers``), the bit-exact model
+(``rast.model.datapath``), the host helpers below and ``docs/registers.md``
+are all generated from :func:`register_map`. Plain Python, no Amaranth.
+
+Bus: word addresses, 32-bit data, one access per clock, read data registered
+(available the cycle after the read strobe).
+
+Access kinds of a field:
+
+``rw``  storage, reads back what was written (after clamping, see ``clamp``)
+``ro``  read-only, driven by the hardware
+``wo``  write strobe (command); reads as 0 unless a read meaning is given
+``rc``  sticky status, cleared by a read of its register
+"""
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
+
+__all__ = ["Field", "Register", "RegisterMap", "register_map", "ChannelInit",
+           "ID_VALUE", "CHANNEL_BASE", "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP",
+           "CTRL_BANK", "manifest_to_register_writes", "manifest_channel_inits",
+           "read_hex_words", "markdown"]
+
+ID_VALUE = 0x52415354          # "RAST"
+CHANNEL_BASE = 0x10
+CHANNEL_STRIDE = 8
+CTRL_ENABLE = 1 << 0
+CTRL_SWAP = 1 << 1
+CTRL_BANK = 1 << 2
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    lsb: int
+    width: int
+    access: str
+    reset: int = 0
+    doc: str = ""
+    #: For rw fields: (lo, hi) the written value is clamped into.
+    clamp: tuple | None = None
+
+    @property
+    def mask(self) -> int:
+        return ((1 << self.width) - 1) << self.lsb
+
+
+@dataclass(frozen=True)
+class Register:
+    name: str
+    addr: int
+    fields: tuple
+    doc: str = ""
+    channel: int | None = None
+
+    def field(self, name) -> Field:
+        for f in self.fields:
+            if f.name == name:
+                return f
+        raise KeyError(name)
+
+
+@dataclass(frozen=True)
+class ChannelInit:
+    """Power-up contents of one channel: bank 0 words and register resets."""
+    words: tuple = ()
+    phase_increment: int = 0
+    gain: int = 0
+    delay: int = 0
+    enable: bool = False
+
+    @property
+    def length(self) -> int:
+        return max(1, len(self.words))
+
+
+@dataclass
+class RegisterMap:
+    contract: ReplayContract
+    registers: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self._by_key = {(r.name, r.channel): r for r in self.registers}
+
+    @property
+    def addr_width(self) -> int:
+        return max(r.addr for r in self.registers).bit_length()
+
+    def reg(self, name, channel=None) -> Register:
+        try:
+            return self._by_key[(name, channel)]
+        except KeyError:
+            raise KeyError(f"No register {name!r} for channel {channel!r}") from None
+
+    def addr(self, name, channel=None) -> int:
+        return self.reg(name, channel).addr
+
+    def by_addr(self, addr) -> Register | None:
+        for r in self.registers:
+            if r.addr == addr:
+                return r
+        return None
+
+
+def _bits(n: int) -> int:
+    return max(1, int(n).bit_length())
+
+
+def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
+    """The register map of a replay block built with ``contract``.
+
+    ``inits`` (a list of :class:`ChannelInit`, one per channel or fewer) sets
+    the reset values of the per-channel registers.
+    """
+    c = contract
+    inits = list(inits or [])
+    inits += [ChannelInit()] * (c.channels - len(inits))
+    config = c.channels | (int(c.interpolate) << 8) | (int(c.cmult_form == "3mult") << 9)
+    regs = [
+        Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
+                 "identification"),
+        Register("CONFIG", 0x01, (Field("channels", 0, 8, "ro", c.channels, "channel count N"),
+                                  Field("interpolate", 8, 1, "ro", int(c.interpolate),
+                                        "1: linear interpolation between stream words"),
+                                  Field("cmult3", 9, 1, "ro", int(c.cmult_form == "3mult"),
+                                        "1: 3-multiplier complex product")),
+                 f"elaboration parameters (reads {config:#x} here)"),
+        Register("LATENCY", 0x02, (Field("latency", 0, 16, "ro", c.latency,
+                                         "fixed latency L in samples"),),
+                 "echo of channel l appears L + sum(DELAY[0..l]) samples after its input"),
+        Register("STATUS", 0x03, (Field("overflow", 0, 1, "rc", 0,
+                                        "an output sample saturated since the last read"),),
+                 "sticky status, cleared by reading"),
+        Register("APPLY", 0x04, (Field("delays", 0, 1, "wo", 0,
+                                       "write 1: all channels' DELAY take effect in the same sample"),),
+                 "commands"),
+        Register("STREAM_SEL", 0x05, (Field("channel", 0, _bits(c.channels - 1), "rw", 0,
+                                            "channel whose stream RAM STREAM_DATA writes"),),
+                 "stream write path: channel"),
+        Register("STREAM_ADDR", 0x06, (Field("addr", 0, _bits(c.stream_depth - 1), "rw", 0,
+                                             "word address in the inactive bank; +1 after each STREAM_DATA"),),
+                 "stream write path: address"),
+        Register("STREAM_DATA", 0x07, (Field("data", 0, 2 * STREAM_WIDTH, "wo", 0,
+                                             "stream word, I low, Q high; written to the inactive bank; "
+                                             "ignored while that channel's swap is pending"),),
+                 "stream write path: data"),
+        Register("STREAM_DEPTH", 0x08, (Field("depth", 0, 32, "ro", c.stream_depth, "words per bank"),),
+                 "capability"),
+        Register("MAX_DELAY", 0x09, (Field("max", 0, 32, "ro", c.max_delay, "largest DELAY of channel 0"),),
+                 "capability"),
+        Register("MAX_INCREMENT", 0x0A, (Field("max", 0, 32, "ro", c.max_increment,
+                                               "largest DELAY of channels 1..N-1"),),
+                 "capability"),
+    ]
+    for ch in range(c.channels):
+        base = CHANNEL_BASE + CHANNEL_STRIDE * ch
+        ini = inits[ch]
+        maxd = c.max_segment_delay(ch)
+        regs += [
+            Register("CTRL", base + 0, (
+                Field("enable", 0, 1, "rw", int(ini.enable), "channel contributes to the sum"),
+                Field("swap", 1, 1, "wo", 0,
+                      "write 1: switch to the other bank at the next period boundary (at once if "
+                      "the write leaves the channel disabled); reads 1 while pending"),
+                Field("bank", 2, 1, "ro", 0, "active bank")), "channel control", ch),
+            Register("LENGTH", base + 1, (Field("length", 0, c.length_width, "rw", ini.length,
+                                                "stream length in words for the next bank (1..depth)",
+                                                clamp=(1, c.stream_depth)),),
+                     "latched into the stream at the bank switch", ch),
+            Register("PHASE_INC", base + 2, (Field("inc", 0, PHASE_FRAC_BITS, "rw", ini.phase_increment,
+                                                   "stream words per sample * 2**32 for the next bank"),),
+                     "latched into the stream at the bank switch", ch),
+            Register("GAIN", base + 3, (Field("gain", 0, GAIN_WIDTH, "rw", ini.gain,
+                                              "gain, unsigned, 16 fractional bits"),),
+                     "takes effect at once", ch),
+            Register("DELAY", base + 4, (Field("delay", 0, _bits(maxd), "rw", min(ini.delay, maxd),
+                                               "delay of this segment in samples (0..max), "
+                                               "takes effect on APPLY", clamp=(0, maxd)),),
+                     "common delay (channel 0) or increment over the previous channel", ch),
+        ]
+    return RegisterMap(c, regs)
+
+
+def markdown(rmap: RegisterMap) -> str:
+    """The register map as a Markdown table (globals and channel 0)."""
+    lines = ["| addr | register | field | bits | access | reset | meaning |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for r in rmap.registers:
+        if r.channel not in (None, 0):
+            continue
+        name = r.name if r.channel is None else f"CH[l].{r.name}"
+        addr = f"{r.addr:#04x}" if r.channel is None else f"{r.addr:#04x} + {CHANNEL_STRIDE}*l"
+        for f in r.fields:
+            bits = f"{f.lsb + f.width - 1}:{f.lsb}" if f.width > 1 else f"{f.lsb}"
+            lines.append(f"| {addr} | {name} | {f.name} | {bits} | {f.access} | "
+                         f"{f.reset:#x} | {f.doc} |")
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------
+# Host side: from a `rast stream` manifest to register writes.
+# ---------------------------------------------------------------------------
+
+def read_hex_words(path) -> list:
+    return [int(line, 16) for line in Path(path).read_text().split()]
+
+
+def _channel_values(manifest, contract):
+    chans = manifest["registers"]["channels"]
+    if len(chans) > contract.channels:
+        raise ValueError(f"Manifest has {len(chans)} windmills but the replay block has "
+                         f"{contract.channels} channels")
+    L = contract.latency
+    out = []
+    for i, ch in enumerate(chans):
+        delay = int(ch["delay_increment"])
+        if i == 0:
+            if delay < L:
+                raise ValueError(f"Common delay of {delay} samples (windmill {ch['windmill']!r}) is "
+                                 f"shorter than the replay block's fixed latency of {L} samples")
+            delay -= L
+        maxd = contract.max_segment_delay(i)
+        if not 0 <= delay <= maxd:
+            what = "Common delay" if i == 0 else "Delay increment"
+            raise ValueError(f"{what} of channel {i} ({ch['windmill']!r}) must be in [0, {maxd}] "
+                             f"samples after subtracting the latency, not {delay}")
+        length = int(ch["length"])
+        if not 1 <= length <= contract.stream_depth:
+            raise ValueError(f"Stream length of channel {i} ({ch['windmill']!r}) must be in "
+                             f"[1, {contract.stream_depth}] words, not {length}")
+        inc = int(ch["phase_increment"])
+        if not 0 <= inc < (1 << PHASE_FRAC_BITS):
+            raise ValueError(f"Phase increment of channel {i} ({ch['windmill']!r}) must be in "
+                             f"[0, 2**{PHASE_FRAC_BITS}) (stream rate below the sample rate), not {inc}")
+        gain = int(ch["gain"])
+        if not 0 <= gain < (1 << GAIN_WIDTH):
+            raise ValueError(f"Gain word of channel {i} ({ch['windmill']!r}) must be in "
+                             f"[0, {(1 << GAIN_WIDTH) - 1}], not {gain}")
+        out.append(dict(name=ch["windmill"], enable=int(ch.get("enable", 1)), length=length,
+                        inc=inc, gain=gain, delay=delay))
+    return out
+
+
+def _load_streams(manifest, stream_dir, streams, values):
+    if streams is not None:
+        return [list(map(int, s)) for s in streams]
+    if stream_dir is None:
+        return None
+    by_name = {w["name"]: w for w in manifest["windmills"]}
+    words = []
+    for v in values:
+        w = read_hex_words(Path(stream_dir) / by_name[v["name"]]["hex_file"])
+        if len(w) != v["length"]:
+            raise ValueError(f"{by_name[v['name']]['hex_file']} has {len(w)} words, the manifest says "
+                             f"{v['length']}")
+        words.append(w)
+    return words
+
+
+def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None = None, *,
+                                stream_dir=None, streams=None) -> list:
+    """Register writes ``[(addr, value), ...]`` that load a manifest into a running block.
+
+    The windmill of list position ``l`` goes to channel ``l``; the rest are
+    disabled. Channel 0's DELAY is the manifest's common delay minus the
+    block's fixed latency ``L`` (so the echo lands at ``delay_samples``);
+    channels 1.. get their increments. With ``stream_dir`` (the manifest's
+    folder, to read the ``.hex`` files) or ``streams`` (word lists) the
+    streams are written too; each channel is disabled, its words written into
+    the inactive bank, the bank switched, then re-enabled. Without streams only
+    gains and delays are written (LENGTH/PHASE_INC too, taking effect at the
+    next bank switch).
+    """
+    contract = contract or ReplayContract(channels=len(manifest["registers"]["channels"]))
+    rmap = register_map(contract)
+    values = _channel_values(manifest, contract)
+    words = _load_streams(manifest, stream_dir, streams, values)
+    w = []
+    a = rmap.addr
+    for ch, v in enumerate(values):
+        if words is not None:
+            w.append((a("CTRL", ch), 0))
+            w.append((a("STREAM_SEL"), ch))
+            w.append((a("STREAM_ADDR"), 0))
+            w += [(a("STREAM_DATA"), int(x) & 0xFFFFFFFF) for x in words[ch]]
+        w.append((a("LENGTH", ch), v["length"]))
+        w.append((a("PHASE_INC", ch), v["inc"]))
+        w.append((a("GAIN", ch), v["gain"]))
+        w.append((a("DELAY", ch), v["delay"]))
+        if words is not None:
+            w.append((a("CTRL", ch), CTRL_SWAP))           # disabled: switches at once
+        w.append((a("CTRL", ch), CTRL_ENABLE if v["enable"] else 0))
+    for ch in range(len(values), contract.channels):
+        w.append((a("CTRL", ch), 0))
+        w.append((a("GAIN", ch), 0))
+        w.append((a("DELAY", ch), 0))
+    w.append((a("APPLY"), 1))
+    return w
+
+
+def manifest_channel_inits(manifest: dict, contract: ReplayContract, stream_dir=None,
+                           streams=None) -> list:
+    """Power-up contents (:class:`ChannelInit` per channel) from a manifest, for
+    a bitstream that replays it without a host."""
+    values = _channel_values(manifest, contract)
+    words = _load_streams(manifest, stream_dir, streams, values)
+    if words is None:
+        raise ValueError("Channel initialisation needs the streams: give stream_dir or streams")
+    return [ChannelInit(tuple(words[i]), v["inc"], v["gain"], v["delay"], bool(v["enable"]))
+            for i, v in enumerate(values)]

@@ -1,0 +1,122 @@
+"""Amaranth-simulator drivers shared by the tests/test_hdl_*.py files.
+
+``run_replay`` drives a :class:`WindFarmReplay` cycle by cycle: input samples
+under a valid pattern, output back-pressure under a ready pattern, and register
+accesses, recording for every access the step index at which it took effect
+(the number of input transfers in cycles up to and including its own). The
+same sequence is then replayed through the bit-exact model.
+"""
+
+import itertools
+
+import numpy as np
+from amaranth.sim import Simulator
+
+from rast.model.datapath import ReplayModel
+
+
+def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None):
+    """Drive ``dut``; ``ops`` is a list of ``(at_step, "w"|"r", addr, value)``.
+
+    An op is issued in the first cycle in which at least ``at_step`` inputs
+    have been accepted. Returns (yi, yq, done_ops) with done_ops a list of
+    ``(k, kind, addr, value_or_readback)`` in issue order.
+    """
+    xi = [int(v) for v in xi]
+    xq = [int(v) for v in xq]
+    T = len(xi)
+    ops = sorted(ops, key=lambda o: o[0])
+    out_i, out_q, done = [], [], []
+    limit = max_cycles or (T * 8 + len(ops) * 4 + 200)
+
+    async def bench(ctx):
+        vpat = itertools.cycle(valid)
+        rpat = itertools.cycle(ready)
+        n_in = 0
+        pending_read = None
+        op_i = 0
+        for cycle in range(limit):
+            if n_in >= T and len(out_i) >= T and op_i >= len(ops) and pending_read is None:
+                return
+            v = next(vpat) if n_in < T else 0
+            r = next(rpat)
+            ctx.set(dut.i.valid, v)
+            if n_in < T:
+                ctx.set(dut.i.payload.re, xi[n_in])
+                ctx.set(dut.i.payload.im, xq[n_in])
+            ctx.set(dut.o.ready, r)
+            op = None
+            if op_i < len(ops) and ops[op_i][0] <= n_in:
+                op = ops[op_i]
+                op_i += 1
+                ctx.set(dut.bus.addr, op[2])
+                ctx.set(dut.bus.w_stb, op[1] == "w")
+                ctx.set(dut.bus.w_data, op[3] if op[1] == "w" else 0)
+                ctx.set(dut.bus.r_stb, op[1] == "r")
+            else:
+                ctx.set(dut.bus.w_stb, 0)
+                ctx.set(dut.bus.r_stb, 0)
+            ce = v and ctx.get(dut.i.ready)
+            if ctx.get(dut.o.valid) and r:
+                out_i.append(ctx.get(dut.o.payload.re))
+                out_q.append(ctx.get(dut.o.payload.im))
+            k = n_in + (1 if ce else 0)
+            await ctx.tick()
+            if pending_read is not None:
+                done.append(pending_read[:3] + (ctx.get(dut.bus.r_data),))
+                pending_read = None
+            if op is not None:
+                if op[1] == "r":
+                    pending_read = (k, "r", op[2])
+                else:
+                    done.append((k, "w", op[2], op[3]))
+            if ce:
+                n_in += 1
+        raise AssertionError(f"run_replay: not finished after {limit} cycles "
+                             f"({n_in}/{T} in, {len(out_i)} out)")
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    return np.array(out_i, dtype=np.int64), np.array(out_q, dtype=np.int64), done
+
+
+def model_replay(contract, inits, xi, xq, done_ops):
+    """Replay inputs and the recorded accesses through the model."""
+    model = ReplayModel(contract, inits)
+    yi, yq, reads = [], [], []
+    pos = 0
+    for k, kind, addr, value in done_ops:
+        if k > pos:
+            a, b = model.run(xi[pos:k], xq[pos:k])
+            yi.append(a); yq.append(b)
+            pos = k
+        if kind == "w":
+            model.write(addr, value)
+        else:
+            reads.append((k, addr, model.read(addr), value))
+    if pos < len(xi):
+        a, b = model.run(xi[pos:], xq[pos:])
+        yi.append(a); yq.append(b)
+    return (np.concatenate(yi) if yi else np.zeros(0, np.int64),
+            np.concatenate(yq) if yq else np.zeros(0, np.int64), reads, model)
+
+
+def assert_same(name, xi, xq, hi, hq, mi, mq):
+    """Integer comparison; on failure report the first differing step with context."""
+    assert len(hi) == len(mi), f"{name}: gateware gave {len(hi)} samples, model {len(mi)}"
+    bad = np.nonzero((hi != mi) | (hq != mq))[0]
+    if len(bad):
+        n = int(bad[0])
+        raise AssertionError(
+            f"{name}: first mismatch at output step {n} of {len(hi)} ({len(bad)} steps differ): "
+            f"gateware ({hi[n]}, {hq[n]}), model ({mi[n]}, {mq[n]}); input at that step "
+            f"({xi[n]}, {xq[n]}); gateware[{max(0, n-3)}:{n+4}] I={hi[max(0, n-3):n+4].tolist()}, "
+            f"model I={mi[max(0, n-3):n+4].tolist()}")
+
+
+def assert_reads(name, reads):
+    for k, addr, expect, got in reads:
+        assert expect == got, (f"{name}: read of register {addr:#x} at step {k}: gateware {got:#x}, "
+                               f"model {expect:#x}")
