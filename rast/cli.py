@@ -51,6 +51,9 @@ def cmd_preview(args) -> int:
     os.close(fd)
     try:
         save_preview(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)   # mkstemp made it private
         os.replace(tmp, out)
     finally:
         if os.path.exists(tmp):
