@@ -15,11 +15,12 @@ from amaranth.sim import Simulator
 from rast.model.datapath import ReplayModel
 
 
-def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None):
+def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False):
     """Drive ``dut``; ``ops`` is a list of ``(at_step, "w"|"r", addr, value)``.
 
     An op is issued in the first cycle in which at least ``at_step`` inputs
-    have been accepted. Returns (yi, yq, done_ops) with done_ops a list of
+    have been accepted (with ``hold``, no input is offered while an op is
+    due, so the op takes effect exactly at ``at_step``). Returns (yi, yq, done_ops) with done_ops a list of
     ``(k, kind, addr, value_or_readback)`` in issue order.
     """
     xi = [int(v) for v in xi]
@@ -33,12 +34,13 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None):
         vpat = itertools.cycle(valid)
         rpat = itertools.cycle(ready)
         n_in = 0
-        pending_read = None
         op_i = 0
         for cycle in range(limit):
-            if n_in >= T and len(out_i) >= T and op_i >= len(ops) and pending_read is None:
+            if n_in >= T and len(out_i) >= T and op_i >= len(ops):
                 return
             v = next(vpat) if n_in < T else 0
+            if hold and op_i < len(ops) and ops[op_i][0] <= n_in:
+                v = 0
             r = next(rpat)
             ctx.set(dut.i.valid, v)
             if n_in < T:
@@ -62,12 +64,9 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None):
                 out_q.append(ctx.get(dut.o.payload.im))
             k = n_in + (1 if ce else 0)
             await ctx.tick()
-            if pending_read is not None:
-                done.append(pending_read[:3] + (ctx.get(dut.bus.r_data),))
-                pending_read = None
             if op is not None:
-                if op[1] == "r":
-                    pending_read = (k, "r", op[2])
+                if op[1] == "r":     # read data is registered: valid right after the edge
+                    done.append((k, "r", op[2], ctx.get(dut.bus.r_data)))
                 else:
                     done.append((k, "w", op[2], op[3]))
             if ce:

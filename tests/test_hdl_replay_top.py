@@ -1,0 +1,286 @@
+"""WindFarmReplay in the Amaranth simulator against the bit-exact model."""
+
+import itertools
+import warnings
+
+import numpy as np
+import pytest
+
+from rast.hdl.replay_top import WindFarmReplay
+from rast.model.datapath import ReplayModel
+from rast.model.fixedpoint import pack_iq, unpack_iq, ReplayContract
+from rast.model.regmap import (ChannelInit, register_map, manifest_to_register_writes,
+                               manifest_channel_inits, ID_VALUE, CTRL_ENABLE, CTRL_SWAP, CTRL_BANK)
+
+from hdl_harness import run_replay, model_replay, assert_same, assert_reads
+
+KW = dict(stream_depth=16, max_delay=20, max_increment=6)
+
+
+def rand_inits(rng, n, depth=16, enable=True):
+    out = []
+    for l in range(n):
+        length = int(rng.integers(1, depth + 1))
+        words = pack_iq(rng.integers(-32768, 32768, length), rng.integers(-32768, 32768, length))
+        out.append(ChannelInit(tuple(int(w) for w in words), int(rng.integers(0, 1 << 32)),
+                               int(rng.integers(0, 1 << 17)), int(rng.integers(0, 7)), enable))
+    return out
+
+
+def check(dut, inits, xi, xq, ops=(), valid=(1,), ready=(1,), name="replay", hold=False):
+    hi, hq, done = run_replay(dut, xi, xq, ops, valid, ready, hold=hold)
+    mi, mq, reads, model = model_replay(dut.contract, inits, xi, xq, done)
+    assert_same(name, xi, xq, hi, hq, mi, mq)
+    assert_reads(name, reads)
+    return hi, hq, done, model
+
+
+def test_top_parameters():
+    with pytest.raises(ValueError, match=r"^Channel count must be a positive integer, not 0$"):
+        WindFarmReplay(0)
+    with pytest.raises(ValueError, match=r"^Initial contents must be given for at most 1 channels, not 2$"):
+        WindFarmReplay(1, init=[ChannelInit(), ChannelInit()])
+    with pytest.raises(TypeError, match=r"^Initial contents of channel 0 must be a ChannelInit, not 3$"):
+        WindFarmReplay(1, init=[3])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
+        assert WindFarmReplay(16).latency == 3 * 16 + 6
+        assert WindFarmReplay(4, cmult_form="3mult").latency == 3 * 4 + 7
+
+
+STALLS = [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1)), ((0, 1, 0, 0, 1), (1,)), ((1,), (0, 1))]
+
+
+@pytest.mark.parametrize("valid, ready", STALLS)
+@pytest.mark.parametrize("channels, opts", [(1, {}), (3, {}), (2, dict(interpolate=True)),
+                                            (2, dict(cmult_form="3mult"))])
+def test_random_against_model(channels, opts, valid, ready):
+    rng = np.random.default_rng(channels * 100 + len(valid) * 10 + len(ready) + len(opts))
+    inits = rand_inits(rng, channels)
+    dut = WindFarmReplay(channels, init=inits, **KW, **opts)
+    T = 300
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    check(dut, inits, xi, xq, valid=valid, ready=ready, name=f"N={channels} {opts} {valid} {ready}")
+
+
+def test_gaps_do_not_change_output():
+    rng = np.random.default_rng(11)
+    inits = rand_inits(rng, 2)
+    T = 200
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    runs = []
+    for valid, ready in STALLS:
+        dut = WindFarmReplay(2, init=inits, **KW)
+        hi, hq, _ = run_replay(dut, xi, xq, (), valid, ready)
+        runs.append((hi, hq))
+    for hi, hq in runs[1:]:
+        assert (hi == runs[0][0]).all() and (hq == runs[0][1]).all()
+
+
+@pytest.mark.parametrize("channel", [0, 2])
+def test_every_delay_echo_position(channel):
+    """Impulse through one channel, every delay 0..max: the echo is at exactly
+    L + sum of the delays up to that channel (checked directly, and against the model)."""
+    N = 3
+    maxd = KW["max_delay"] if channel == 0 else KW["max_increment"]
+    word = int(pack_iq([16384], [0])[0])
+    inits = [ChannelInit((word,), 0, 1 << 16, 2 if l != channel else 0, l == channel) for l in range(N)]
+    dut = WindFarmReplay(N, init=inits, **KW)
+    rmap = dut.register_map
+    L = dut.latency
+    base_sum = sum(inits[l].delay for l in range(channel + 1))
+    per = L + KW["max_delay"] + 3 * KW["max_increment"] + 4
+    T = per * (maxd + 1)
+    xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    ops = []
+    for d in range(maxd + 1):
+        start = d * per
+        xi[start + 1] = 20000
+        ops += [(start, "w", rmap.addr("DELAY", channel), d), (start, "w", rmap.addr("APPLY"), 1)]
+    hi, hq, done, _ = check(dut, inits, xi, xq, ops, valid=(1, 0, 1), name="delays")
+    for d in range(maxd + 1):
+        seg = hi[d * per + 1: (d + 1) * per + 1]
+        hit = np.nonzero(seg)[0]
+        assert hit.tolist() == [L + base_sum + d], f"delay {d}: echo at {hit.tolist()}, expected {L + base_sum + d}"
+        assert seg[hit[0]] == 10000
+
+
+def test_full_scale_in_phase_saturates_and_flags_overflow():
+    N = 4
+    word = int(pack_iq([-32768], [-32768])[0])
+    inits = [ChannelInit((word,), 0, (1 << 17) - 1, 0, True) for _ in range(N)]
+    dut = WindFarmReplay(N, init=inits, **KW)
+    rmap = dut.register_map
+    L = dut.latency
+    T = 3 * L + 40
+    xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    xi[:5] = -32768; xq[:5] = -32768        # full-scale burst
+    st = rmap.addr("STATUS")
+    ops = [(2, "r", st, 0), (L + 3, "r", st, 0), (L + 3, "r", st, 0), (L + 20, "r", st, 0),
+           (L + 22, "r", st, 0)]
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 1, 0), name="full scale")
+    # (-1-1j)*(-1-1j) = 2j: Q saturates high, I is 0
+    assert hq.max() == 32767 and (hq == 32767).sum() >= 4
+    reads = [v for k, kind, a, v in done if kind == "r"]
+    assert reads[0] == 0 and reads[1] == 1, reads          # set, then cleared by the read
+    assert reads[-1] == 0
+
+
+def test_register_writes_mid_stream():
+    rng = np.random.default_rng(21)
+    N = 3
+    inits = rand_inits(rng, N)
+    dut = WindFarmReplay(N, init=inits, **KW)
+    rmap = dut.register_map
+    T = 600
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    ops = []
+    for k in sorted(rng.integers(0, T, 60).tolist()):
+        l = int(rng.integers(0, N))
+        what = rng.integers(0, 6)
+        if what == 0:
+            ops.append((k, "w", rmap.addr("GAIN", l), int(rng.integers(0, 1 << 17))))
+        elif what == 1:
+            ops.append((k, "w", rmap.addr("CTRL", l), int(rng.integers(0, 2))))
+        elif what == 2:
+            ops.append((k, "w", rmap.addr("DELAY", l), int(rng.integers(0, 40))))   # clamped
+        elif what == 3:
+            ops.append((k, "w", rmap.addr("APPLY"), 1))
+        elif what == 4:
+            ops.append((k, "r", rmap.addr(str(rng.choice(["GAIN", "DELAY", "CTRL", "LENGTH"])), l), 0))
+        else:
+            ops.append((k, "r", rmap.addr("STATUS"), 0))
+    check(dut, inits, xi, xq, ops, valid=(1, 1, 0, 1), ready=(1, 1, 1, 0), name="mid-stream writes")
+
+
+def test_identification_registers():
+    dut = WindFarmReplay(2, **KW)
+    rmap = dut.register_map
+    ops = [(0, "r", rmap.addr(n), 0) for n in ("ID", "CONFIG", "LATENCY", "STREAM_DEPTH", "MAX_DELAY",
+                                               "MAX_INCREMENT")]
+    _, _, done, _ = check(dut, [], np.zeros(4, np.int64), np.zeros(4, np.int64), ops)
+    vals = [v for *_, v in done]
+    assert vals == [ID_VALUE, 2, dut.latency, 16, 20, 6]
+
+
+def test_bank_switch_at_period_boundary():
+    """A new stream written while running takes over exactly after the old
+    stream's last word; writes while the switch is pending are ignored."""
+    length_old, length_new = 5, 3
+    old = pack_iq([1000 * (k + 1) for k in range(length_old)], [0] * length_old)
+    new = pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)
+    inc = 3 << 30                       # 0.75 words per sample
+    inits = [ChannelInit(tuple(int(w) for w in old), inc, 1 << 16, 0, True)]
+    dut = WindFarmReplay(1, init=inits, **KW)
+    rmap = dut.register_map
+    T = 160
+    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    a = rmap.addr
+    ops = [(10, "w", a("STREAM_SEL"), 0), (10, "w", a("STREAM_ADDR"), 0)]
+    ops += [(11, "w", a("STREAM_DATA"), int(w)) for w in new]
+    ops += [(12, "w", a("LENGTH", 0), length_new), (12, "w", a("PHASE_INC", 0), 1 << 31),
+            (13, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (13, "r", a("CTRL", 0), 0),
+            (13, "w", a("STREAM_DATA"), 0x12345678),          # ignored: pending
+            (60, "r", a("CTRL", 0), 0)]
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 0, 1, 1), name="bank switch")
+    reads = [v for k, kind, ad, v in done if kind == "r"]
+    assert reads[0] == CTRL_ENABLE | CTRL_SWAP            # pending
+    assert reads[1] == CTRL_ENABLE | CTRL_BANK            # switched to bank 1
+    # the output is x * word / 2: old words 500..2500, new words -250, -500, -750
+    L = dut.latency
+    out = hi[L:]
+    first_new = int(np.nonzero(out < 0)[0][0])
+    assert out[first_new - 1] == 2500, "switch not at the end of the old period"
+    assert out[first_new] == -250, "new stream does not start at word 0"
+    assert set(out[first_new:].tolist()) == {-250, -500, -750}
+
+
+def test_manifest_register_writes_place_echoes():
+    """A manifest (as `rast stream` writes it) loaded by register writes into a
+    block that starts empty: each windmill's echo lands at its delay_samples."""
+    rng = np.random.default_rng(4)
+    N = 3
+    dut = WindFarmReplay(N, **KW)
+    L = dut.latency
+    names = ["a", "b", "c"]
+    delays = [L + 7, L + 7, L + 10]
+    streams = [[int(pack_iq([8192 * (l + 1)], [0])[0])] * (l + 2) for l in range(N)]
+    manifest = {
+        "windmills": [{"name": n, "hex_file": f"{n}.hex", "length": len(s), "delay_samples": d}
+                      for n, s, d in zip(names, streams, delays)],
+        "registers": {"channels": [
+            {"windmill": n, "enable": 1, "length": len(s), "phase_increment": 1 << 30,
+             "gain": 1 << 16, "delay_increment": d - (delays[l - 1] if l else 0)}
+            for l, (n, s, d) in enumerate(zip(names, streams, delays))]},
+    }
+    writes = manifest_to_register_writes(manifest, dut.contract, streams=streams)
+    T = 60
+    xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    xi[0] = 16384
+    ops = [(0, "w", a, v) for a, v in writes]
+    hi, hq, done, _ = check(dut, [], xi, xq, ops, valid=(1, 0), name="manifest", hold=True)
+    # channels 0 and 1 share a range: their echoes add (8192+16384)/2 ... at delays[0]
+    assert np.nonzero(hi)[0].tolist() == sorted(set(delays))
+    assert hi[delays[0]] == (8192 + 16384) // 2 and hi[delays[2]] == 24576 // 2
+    with pytest.raises(ValueError, match=r"shorter than the replay block's fixed latency"):
+        bad = dict(manifest, registers={"channels": [dict(manifest["registers"]["channels"][0],
+                                                          delay_increment=L - 1)]})
+        manifest_to_register_writes(bad, dut.contract)
+    inits = manifest_channel_inits(manifest, dut.contract, streams=streams)
+    assert inits[0].delay == 7 and inits[2].delay == 3
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_register_stress(seed):
+    """Dense random register traffic (stream writes, bank switches forced and
+    at wraps, rate/length changes, delays, status reads) racing the samples."""
+    rng = np.random.default_rng(100 + seed)
+    N = 2
+    kw = dict(stream_depth=4, max_delay=5, max_increment=3)
+    inits = rand_inits(rng, N, depth=4)
+    dut = WindFarmReplay(N, init=inits, interpolate=bool(seed % 2), **kw)
+    a = dut.register_map.addr
+    T = 500
+    xi = rng.integers(-32768, 32768, T); xq = rng.integers(-32768, 32768, T)
+    ops = []
+    for k in sorted(rng.integers(0, T, 400).tolist()):
+        l = int(rng.integers(0, N))
+        r = rng.integers(0, 10)
+        if r == 0:
+            ops.append((k, "w", a("CTRL", l), int(rng.integers(0, 4))))
+        elif r == 1:
+            ops.append((k, "w", a("STREAM_SEL"), l))
+        elif r in (2, 3):
+            ops.append((k, "w", a("STREAM_DATA"), int(rng.integers(0, 1 << 32))))
+        elif r == 4:
+            ops.append((k, "w", a("LENGTH", l), int(rng.integers(0, 7))))
+        elif r == 5:
+            ops.append((k, "w", a("PHASE_INC", l), int(rng.integers(1 << 30, 1 << 32))))
+        elif r == 6:
+            ops.append((k, "w", a("GAIN", l), int(rng.integers(1 << 16, 1 << 17))))
+        elif r == 7:
+            ops.append((k, "r", a("STATUS"), 0))
+        elif r == 8:
+            ops.append((k, "r", a("CTRL", l), 0))
+        else:
+            name = str(rng.choice(["DELAY", "APPLY", "STREAM_ADDR"]))
+            ops.append((k, "w", a(name, l if name == "DELAY" else None), int(rng.integers(0, 8))))
+    check(dut, inits, xi, xq, ops, valid=(1, 1, 0), ready=(1, 1, 1, 0), name=f"stress {seed}")
+
+
+def test_forced_switch_racing_a_wrap():
+    """A CTRL write that forces a switch in the very sample whose wrap completes
+    a pending switch: both switches happen (bank toggles twice), as in the model."""
+    words = [int(pack_iq([1000 * (k + 1)], [0])[0]) for k in range(4)]
+    inits = [ChannelInit((words[0],), (1 << 32) - 1, 1 << 16, 0, True)]
+    dut = WindFarmReplay(1, init=inits, stream_depth=4, max_delay=3, max_increment=1)
+    a = dut.register_map.addr
+    T = 80
+    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    ops = [(0, "w", a("STREAM_DATA"), words[1]), (0, "w", a("LENGTH", 0), 1)]
+    for k in range(5, 60, 6):
+        ops += [(k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "w", a("CTRL", 0), CTRL_SWAP),
+                (k, "r", a("CTRL", 0), 0), (k, "w", a("CTRL", 0), CTRL_ENABLE)]
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, name="race")
+    banks = [v >> 2 for k, kind, ad, v in done if kind == "r"]
+    assert len(set(banks)) == 2 or len(banks) < 2
