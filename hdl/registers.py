@@ -104,7 +104,10 @@ class RegisterFile(wiring.Component):
                 v = bus.w_data[f.lsb:f.lsb + f.width]
                 if f.clamp:
                     lo, hi = f.clamp
-                    v = Mux(v < lo, lo, Mux(v > hi, hi, v))
+                    if hi < (1 << f.width) - 1:
+                        v = Mux(v > hi, hi, v)
+                    if lo > 0:
+                        v = Mux(v < lo, lo, v)
                 with m.If(wsel(r)):
                     m.d.sync += sig.eq(v)
 
