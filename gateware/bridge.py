@@ -1,0 +1,154 @@
+"""UART host bridge: the register-bus initiator behind ``rast load``.
+
+Protocol: :mod:`rast.model.hostproto` (the host side, shared by the loader and
+the simulation tests). The bridge is the only master of the replay block's
+register bus (:class:`rast.hdl.registers.BusSignature`).
+"""
+
+from amaranth.hdl import Module, Signal, Cat, Const
+from amaranth.lib import wiring
+from amaranth.lib.fifo import SyncFIFO
+from amaranth.lib.wiring import In, Out
+
+from ..hdl.registers import BusSignature
+from ..model.hostproto import (CMD_WRITE, CMD_BURST, CMD_READ, CMD_VERSION, ACK, BRIDGE_ID,
+                               TX_FIFO_DEPTH)
+from .uart import UARTRx, UARTTx
+
+__all__ = ["UARTBridge"]
+
+
+class UARTBridge(wiring.Component):
+    """Parses host frames from ``rx``, drives ``bus``, answers on ``tx``.
+
+    Parameters
+    ----------
+    addr_width : int
+        Width of the register bus address (the frame's 16-bit address is
+        truncated to it).
+    divisor : int
+        Clock cycles per UART bit.
+    timeout : int
+        Cycles without a received byte after which a partial frame is dropped.
+
+    Members
+    -------
+    rx : In(1), tx : Out(1)
+        UART lines (8N1, idle high).
+    bus : Out(BusSignature(addr_width))
+    frames : Out(16)
+        Frames executed (wraps), for a status LED or a test.
+    """
+
+    def __init__(self, addr_width, divisor, timeout):
+        if not isinstance(addr_width, int) or isinstance(addr_width, bool) or not 1 <= addr_width <= 16:
+            raise ValueError(f"Address width must be an integer in [1, 16], not {addr_width!r}")
+        if not isinstance(timeout, int) or isinstance(timeout, bool) or timeout < 20 * divisor:
+            raise ValueError(f"Timeout must be an integer of at least two bytes' time "
+                             f"({20 * divisor} cycles), not {timeout!r}")
+        self._addr_width = addr_width
+        self._divisor = divisor
+        self._timeout = timeout
+        super().__init__({
+            "rx": In(1, init=1),
+            "tx": Out(1, init=1),
+            "bus": Out(BusSignature(addr_width)),
+            "frames": Out(16),
+        })
+
+    @property
+    def timeout(self):
+        return self._timeout
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.urx = urx = UARTRx(self._divisor)
+        m.submodules.utx = utx = UARTTx(self._divisor)
+        m.submodules.txq = txq = SyncFIFO(width=8, depth=TX_FIFO_DEPTH)
+        m.d.comb += [urx.rx.eq(self.rx), self.tx.eq(utx.tx),
+                     utx.data.eq(txq.r_data), utx.valid.eq(txq.r_rdy), txq.r_en.eq(utx.ready)]
+
+        byte, stb = urx.data, urx.stb
+        cmd = Signal(8)
+        addr = Signal(16)
+        count = Signal(16)
+        data = Signal(32)
+        n = Signal(2)
+        idle = Signal(range(self._timeout + 1))
+        timed_out = Signal()
+        with m.If(stb):
+            m.d.sync += idle.eq(0)
+        with m.Elif(~timed_out):
+            m.d.sync += idle.eq(idle + 1)
+        m.d.comb += timed_out.eq(idle == self._timeout)
+
+        bus = self.bus
+        m.d.comb += [bus.addr.eq(addr), bus.w_data.eq(data)]
+
+        with m.FSM():
+            with m.State("IDLE"):
+                with m.If(stb):
+                    m.d.sync += [cmd.eq(byte), n.eq(0)]
+                    with m.If((byte == CMD_WRITE) | (byte == CMD_BURST) | (byte == CMD_READ)):
+                        m.next = "ADDR"
+                    with m.Elif(byte == CMD_VERSION):
+                        m.d.sync += data.eq(BRIDGE_ID)
+                        m.next = "REPLY"
+            with m.State("ADDR"):
+                with m.If(timed_out):
+                    m.next = "IDLE"
+                with m.Elif(stb):
+                    m.d.sync += [addr.eq(Cat(addr[8:], byte)), n.eq(n + 1)]
+                    with m.If(n == 1):
+                        m.d.sync += n.eq(0)
+                        with m.If(cmd == CMD_READ):
+                            m.next = "READ"
+                        with m.Elif(cmd == CMD_BURST):
+                            m.next = "COUNT"
+                        with m.Else():
+                            m.d.sync += count.eq(1)
+                            m.next = "DATA"
+            with m.State("COUNT"):
+                with m.If(timed_out):
+                    m.next = "IDLE"
+                with m.Elif(stb):
+                    m.d.sync += [count.eq(Cat(count[8:], byte)), n.eq(n + 1)]
+                    with m.If(n == 1):
+                        m.d.sync += n.eq(0)
+                        with m.If(Cat(count[8:], byte) == 0):
+                            m.next = "ACK"
+                        with m.Else():
+                            m.next = "DATA"
+            with m.State("DATA"):
+                with m.If(timed_out):
+                    m.next = "IDLE"
+                with m.Elif(stb):
+                    m.d.sync += [data.eq(Cat(data[8:], byte)), n.eq(n + 1)]
+                    with m.If(n == 3):
+                        m.next = "WRITE"
+            with m.State("WRITE"):
+                m.d.comb += bus.w_stb.eq(1)
+                m.d.sync += count.eq(count - 1)
+                with m.If(count == 1):
+                    m.next = "ACK"
+                with m.Else():
+                    m.next = "DATA"
+            with m.State("READ"):
+                m.d.comb += bus.r_stb.eq(1)
+                m.next = "READ_DATA"
+            with m.State("READ_DATA"):
+                m.d.sync += data.eq(bus.r_data)
+                m.next = "REPLY"
+            with m.State("REPLY"):
+                m.d.comb += [txq.w_data.eq(data[:8]), txq.w_en.eq(1)]
+                with m.If(txq.w_rdy):
+                    m.d.sync += [data.eq(data >> 8), n.eq(n + 1)]
+                    with m.If(n == 3):
+                        m.d.sync += [n.eq(0), self.frames.eq(self.frames + 1)]
+                        m.next = "IDLE"
+            with m.State("ACK"):
+                m.d.comb += [txq.w_data.eq(ACK), txq.w_en.eq(1)]
+                with m.If(txq.w_rdy):
+                    m.d.sync += self.frames.eq(self.frames + 1)
+                    m.next = "IDLE"
+        return m

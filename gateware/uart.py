@@ -1,0 +1,135 @@
+"""8N1 UART transmitter and receiver, one clock domain, fixed divisor."""
+
+from amaranth.hdl import Module, Signal, Cat, Const
+from amaranth.lib import wiring
+from amaranth.lib.cdc import FFSynchronizer
+from amaranth.lib.wiring import In, Out
+
+__all__ = ["UARTRx", "UARTTx", "divisor"]
+
+
+def divisor(clk_hz: float, baud: int) -> int:
+    """Clock cycles per bit, ``round(clk_hz / baud)``; rejects rates off by over 2 %."""
+    if not isinstance(baud, int) or isinstance(baud, bool) or baud <= 0:
+        raise TypeError(f"Baud rate must be a positive integer, not {baud!r}")
+    d = round(clk_hz / baud)
+    if d < 4:
+        raise ValueError(f"Baud rate {baud} is too fast for a {clk_hz / 1e6:g} MHz clock "
+                         f"(needs at least 4 cycles per bit)")
+    err = abs(clk_hz / d - baud) / baud
+    if err > 0.02:
+        raise ValueError(f"Baud rate {baud} is {err:.1%} off with a {clk_hz / 1e6:g} MHz clock "
+                         f"(divisor {d}); at most 2 % is allowed")
+    return d
+
+
+class UARTRx(wiring.Component):
+    """Receiver: ``data`` is valid for the one cycle ``stb`` is high.
+
+    The line goes through a two-register synchroniser; a start bit is
+    confirmed at its middle, each data bit sampled at its middle, and a
+    frame without its stop bit is dropped (``err`` pulses).
+
+    Members
+    -------
+    rx : In(1)
+        The line (idle high).
+    data : Out(8)
+    stb : Out(1)
+    err : Out(1)
+    """
+
+    rx: In(1, init=1)
+    data: Out(8)
+    stb: Out(1)
+    err: Out(1)
+
+    def __init__(self, divisor):
+        if not isinstance(divisor, int) or isinstance(divisor, bool) or divisor < 4:
+            raise ValueError(f"UART divisor must be an integer of at least 4, not {divisor!r}")
+        self._divisor = divisor
+        super().__init__()
+
+    def elaborate(self, platform):
+        m = Module()
+        d = self._divisor
+        rx = Signal(init=1)
+        m.submodules.sync = FFSynchronizer(self.rx, rx, init=1)
+        timer = Signal(range(d))
+        bits = Signal(4)
+        shreg = Signal(8)
+        m.d.sync += [self.stb.eq(0), self.err.eq(0)]
+        with m.FSM():
+            with m.State("IDLE"):
+                with m.If(~rx):
+                    m.d.sync += timer.eq(d // 2 - 1)
+                    m.next = "START"
+            with m.State("START"):
+                with m.If(timer == 0):
+                    with m.If(rx):
+                        m.next = "IDLE"               # a glitch, not a start bit
+                    with m.Else():
+                        m.d.sync += [timer.eq(d - 1), bits.eq(0)]
+                        m.next = "DATA"
+                with m.Else():
+                    m.d.sync += timer.eq(timer - 1)
+            with m.State("DATA"):
+                with m.If(timer == 0):
+                    m.d.sync += [timer.eq(d - 1), shreg.eq(Cat(shreg[1:], rx)), bits.eq(bits + 1)]
+                    with m.If(bits == 7):
+                        m.next = "STOP"
+                with m.Else():
+                    m.d.sync += timer.eq(timer - 1)
+            with m.State("STOP"):
+                with m.If(timer == 0):
+                    with m.If(rx):
+                        m.d.sync += [self.data.eq(shreg), self.stb.eq(1)]
+                    with m.Else():
+                        m.d.sync += self.err.eq(1)
+                    m.next = "IDLE"
+                with m.Else():
+                    m.d.sync += timer.eq(timer - 1)
+        return m
+
+
+class UARTTx(wiring.Component):
+    """Transmitter: a byte is taken when ``valid & ready``.
+
+    Members
+    -------
+    data : In(8)
+    valid : In(1)
+    ready : Out(1)
+    tx : Out(1)
+        The line (idle high).
+    """
+
+    data: In(8)
+    valid: In(1)
+    ready: Out(1)
+    tx: Out(1, init=1)
+
+    def __init__(self, divisor):
+        if not isinstance(divisor, int) or isinstance(divisor, bool) or divisor < 4:
+            raise ValueError(f"UART divisor must be an integer of at least 4, not {divisor!r}")
+        self._divisor = divisor
+        super().__init__()
+
+    def elaborate(self, platform):
+        m = Module()
+        d = self._divisor
+        timer = Signal(range(d))
+        shreg = Signal(10, init=0x3FF)
+        left = Signal(4)
+        m.d.comb += self.ready.eq(left == 0)
+        m.d.comb += self.tx.eq(shreg[0])
+        with m.If(left == 0):
+            with m.If(self.valid):
+                m.d.sync += [shreg.eq(Cat(Const(0, 1), self.data, Const(1, 1))),
+                             left.eq(10), timer.eq(d - 1)]
+        with m.Elif(timer == 0):
+            m.d.sync += [shreg.eq(Cat(shreg[1:], Const(1, 1))), left.eq(left - 1),
+                         timer.eq(d - 1)]
+        with m.Else():
+            m.d.sync += timer.eq(timer - 1)
+        return m

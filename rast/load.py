@@ -1,0 +1,146 @@
+"""load a `rast stream` manifest (streams, delays, gains) into a board over the UART bridge
+
+``rast load MANIFEST_DIR --port /dev/ttyUSB0`` asks the bitstream for its
+configuration (channel count, depths, latency), writes every windmill's
+stream into the inactive bank, switches banks, sets gains and delays, reads
+them back and prints the status (overflow flag, versions).
+"""
+
+import json
+import sys
+import time
+from pathlib import Path
+
+from rast.model.fixedpoint import ReplayContract
+from rast.model.hostproto import HostBridge, BRIDGE_ID, ProtocolError
+from rast.model.regmap import (ID_VALUE, register_map, manifest_to_register_writes,
+                               CTRL_ENABLE)
+
+__all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_status", "LoadError"]
+
+_GLOBAL = register_map(ReplayContract(channels=1))
+
+
+class LoadError(Exception):
+    pass
+
+
+def read_contract(bridge: HostBridge) -> ReplayContract:
+    """The replay block's parameters, read from its capability registers."""
+    bid = bridge.version()
+    if bid != BRIDGE_ID:
+        raise LoadError(f"Bridge identifies as {bid:#010x}, this loader speaks {BRIDGE_ID:#010x}")
+    a = _GLOBAL.addr
+    ident = bridge.read(a("ID"))
+    if ident != ID_VALUE:
+        raise LoadError(f"Register ID reads {ident:#010x}, not {ID_VALUE:#010x}: not a RAST bitstream")
+    cfg = bridge.read(a("CONFIG"))
+    c = ReplayContract(channels=cfg & 0xFF, stream_depth=bridge.read(a("STREAM_DEPTH")),
+                       max_delay=bridge.read(a("MAX_DELAY")),
+                       max_increment=bridge.read(a("MAX_INCREMENT")),
+                       interpolate=bool(cfg >> 8 & 1), cmult_form="3mult" if cfg >> 9 & 1 else "4mult")
+    lat = bridge.read(a("LATENCY"))
+    if lat != c.latency:
+        raise LoadError(f"Bitstream latency {lat} differs from the model's {c.latency} for "
+                        f"{c}: bitstream and host software are of different versions")
+    return c
+
+
+def expected_readback(writes, rmap):
+    """Last value written to each read/write register, after clamping."""
+    exp = {}
+    for addr, value in writes:
+        r = rmap.by_addr(addr)
+        if r is None or r.name in ("STREAM_DATA", "APPLY", "STREAM_ADDR", "STREAM_SEL"):
+            continue
+        v = 0
+        for f in r.fields:
+            if f.access != "rw":
+                continue
+            fv = (value >> f.lsb) & ((1 << f.width) - 1)
+            if f.clamp:
+                fv = min(max(fv, f.clamp[0]), f.clamp[1])
+            v |= fv << f.lsb
+        exp[addr] = (r, v)
+    return exp
+
+
+def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress=None):
+    """Write the manifest in ``manifest_dir`` into the block; verify by reading back.
+
+    Returns a dict of what was done. Raises :class:`LoadError` on a mismatch."""
+    manifest_dir = Path(manifest_dir)
+    manifest = json.loads((manifest_dir / "manifest.json").read_text())
+    contract = contract or read_contract(bridge)
+    rmap = register_map(contract)
+    writes = manifest_to_register_writes(manifest, contract,
+                                         stream_dir=manifest_dir if streams else None)
+    t0 = time.monotonic()
+    bridge.write_many(writes, progress)
+    dt = time.monotonic() - t0
+    mismatches = []
+    for addr, (r, v) in expected_readback(writes, rmap).items():
+        mask = sum(f.mask for f in r.fields if f.access == "rw")
+        got = bridge.read(addr) & mask
+        if got != v:
+            mismatches.append(f"{r.name}[{r.channel}] reads {got:#x}, wrote {v:#x}")
+    if mismatches:
+        raise LoadError("Read-back differs: " + "; ".join(mismatches))
+    n_words = sum(1 for a, _ in writes if a == rmap.addr("STREAM_DATA"))
+    return {"writes": len(writes), "stream_words": n_words, "seconds": dt,
+            "channels": len(manifest["registers"]["channels"])}
+
+
+def read_status(bridge, contract):
+    rmap = register_map(contract)
+    st = {"bridge_id": bridge.version(), "id": bridge.read(rmap.addr("ID")),
+          "config": bridge.read(rmap.addr("CONFIG")), "latency": bridge.read(rmap.addr("LATENCY")),
+          "overflow": bridge.read(rmap.addr("STATUS")) & 1, "channels": []}
+    for ch in range(contract.channels):
+        ctrl = bridge.read(rmap.addr("CTRL", ch))
+        st["channels"].append({"enable": ctrl & CTRL_ENABLE, "swap_pending": ctrl >> 1 & 1,
+                               "bank": ctrl >> 2 & 1, "gain": bridge.read(rmap.addr("GAIN", ch)),
+                               "delay": bridge.read(rmap.addr("DELAY", ch))})
+    return st
+
+
+def add_arguments(p):
+    p.add_argument("manifest_dir", nargs="?", help="folder written by `rast stream` (manifest.json, *.hex)")
+    p.add_argument("--port", required=True, help="serial port of the board, e.g. /dev/ttyUSB0")
+    p.add_argument("--baud", type=int, default=1_000_000, help="bridge baud rate (default 1000000)")
+    p.add_argument("--no-streams", action="store_true",
+                   help="write gains, delays, lengths and rates only, not the stream RAMs")
+    p.add_argument("--status", action="store_true", help="only read and print the status")
+
+
+def _print_status(st):
+    print(f"bridge {st['bridge_id']:#010x}, ID {st['id']:#010x}, CONFIG {st['config']:#x}, "
+          f"latency {st['latency']} samples, overflow {'SET' if st['overflow'] else 'clear'}")
+    for k, ch in enumerate(st["channels"]):
+        print(f"  channel {k}: {'on ' if ch['enable'] else 'off'} bank {ch['bank']} "
+              f"gain {ch['gain']:#07x} delay {ch['delay']}{' (swap pending)' if ch['swap_pending'] else ''}")
+
+
+def run(args) -> int:
+    import serial
+    if not args.status and not args.manifest_dir:
+        print("rast load: give MANIFEST_DIR (or --status)", file=sys.stderr)
+        return 2
+    try:
+        with serial.Serial(args.port, args.baud, timeout=1.0) as port:
+            bridge = HostBridge(port)
+            bridge.resync(drain=port.reset_input_buffer)
+            contract = read_contract(bridge)
+            if not args.status:
+                def progress(done, total):
+                    if done == total or done % 2048 == 0:
+                        print(f"\r  {done}/{total} writes", end="", flush=True)
+                res = load_manifest(bridge, args.manifest_dir, contract,
+                                    streams=not args.no_streams, progress=progress)
+                print(f"\nloaded {res['channels']} windmill(s), {res['stream_words']} stream words "
+                      f"in {res['seconds']:.1f} s; read-back matches")
+            _print_status(read_status(bridge, contract))
+    except (LoadError, ProtocolError, ValueError, OSError) as e:
+        print(f"rast load: {e}", file=sys.stderr)
+        return 1
+    return 0
