@@ -14,6 +14,11 @@ is chosen per windmill:
   T_sim by less than half an RTS sample; the samples are taken over exactly
   one period, so the loop is still seamless and the rotation speed is off by
   less than 1/(2N) (reported as ``rpm_replayed``).
+
+The replay block steps its RAM address by ``phase_increment / 2**32`` words per
+RTS sample and takes increments below 2**32; one word per sample is therefore
+``2**32 − 1``: one extra held sample every 2**32 samples (215 s at 20 MHz), a
+rate error of 2.3e-10, far below the rounding of the period itself.
 """
 
 from __future__ import annotations
@@ -49,16 +54,16 @@ def plan_stream(windmill: Windmill, farm: Farm) -> StreamPlan:
     t_sim = windmill.period_s
     f_max = max_doppler_hz(windmill, farm.radar.wavelength_m)
     f_s = farm.sample_rate_hz
-    one_word = 1 << fx.PHASE_FRAC_BITS
+    max_increment = (1 << fx.PHASE_FRAC_BITS) - 1
     if windmill.stream_rate == "rts":
         length = max(1, round(t_sim * f_s))
-        return StreamPlan(length, f_s, length / f_s, one_word, f_max)
+        return StreamPlan(length, f_s, length / f_s, max_increment, f_max)
     if windmill.stream_rate is None:
         length = max(MIN_STREAM_WORDS, math.ceil(farm.stream_oversampling * f_max * t_sim))
     else:
         length = max(1, round(windmill.stream_rate * t_sim))
     rate = length / t_sim
-    increment = round(rate / f_s * one_word)
+    increment = min(max_increment, round(rate / f_s * (1 << fx.PHASE_FRAC_BITS)))
     return StreamPlan(length, rate, t_sim, increment, f_max)
 
 
