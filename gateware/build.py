@@ -24,7 +24,7 @@ from .platforms import make_platform
 from .top import BoardTop, DEFAULT_BAUD
 
 __all__ = ["BuildConfig", "BuildError", "build", "tool_env", "parse_nextpnr_report",
-           "parse_yosys_stat", "NAME"]
+           "parse_yosys_stat", "critical_path", "NAME"]
 
 NAME = "rast_top"
 
@@ -104,23 +104,32 @@ def parse_yosys_stat(log_text):
     return cells
 
 
-def _critical_path(rep, clock):
-    """The worst path of ``clock`` as [(from, to, delay_ns, type)] (short)."""
+def critical_path(rep, clock):
+    """The worst register-to-register path of ``clock`` from nextpnr's report:
+    start and end cells, logic and routing delay, and the design source lines
+    (``hdl/``, ``gateware/``) the path runs through."""
     for cp in rep.get("critical_paths", []):
-        if cp.get("from") == clock or clock in (cp.get("from", ""), cp.get("to", "")):
-            steps = []
-            for s in cp.get("path", []):
-                steps.append({"type": s.get("type"), "delay_ns": round(float(s.get("delay", 0)), 3),
-                              "from": s.get("from", {}).get("cell", ""),
-                              "to": s.get("to", {}).get("cell", "")})
-            return steps
-    return []
-
-
-def _summarise_path(steps, top=4):
-    """A few words about the worst path: its largest delays."""
-    worst = sorted(steps, key=lambda s: -s["delay_ns"])[:top]
-    return [f"{s['type']} {s['delay_ns']:.2f} ns {s['from']} -> {s['to']}" for s in worst]
+        if cp.get("from") != f"posedge {clock}" or cp.get("to") != f"posedge {clock}":
+            continue
+        steps = cp.get("path", [])
+        if not steps:
+            continue
+        logic = sum(float(s.get("delay", 0)) for s in steps if s.get("type") != "routing")
+        routing = sum(float(s.get("delay", 0)) for s in steps if s.get("type") == "routing")
+        lines = []
+        for s in steps:
+            for src in s.get("sources", []):
+                m = re.search(r"((?:hdl|gateware)/\w+\.py:\d+)", src)
+                if m and m.group(1) not in lines:
+                    lines.append(m.group(1))
+        worst = max(steps, key=lambda s: float(s.get("delay", 0)))
+        return {"from": steps[0]["from"]["cell"], "to": steps[-1]["to"]["cell"],
+                "delay_ns": round(logic + routing, 3), "logic_ns": round(logic, 3),
+                "routing_ns": round(routing, 3),
+                "largest_step": f"{worst.get('type')} {float(worst.get('delay', 0)):.2f} ns into "
+                                f"{worst.get('to', {}).get('cell', '')}",
+                "source_lines": lines}
+    return {}
 
 
 class _Progress:
@@ -227,7 +236,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
         "clocks": clocks,
         "sample_clock": sample_clock,
         "fmax_mhz": clocks[sample_clock]["achieved_mhz"] if sample_clock else None,
-        "critical_path": _summarise_path(_critical_path(rep, sample_clock)) if sample_clock else [],
+        "critical_path": critical_path(rep, sample_clock) if sample_clock else {},
     }
     report["resources"] = {
         "luts": u("TRELLIS_COMB"), "ffs": u("TRELLIS_FF"), "dsps": u("MULT18X18D"),

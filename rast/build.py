@@ -65,9 +65,12 @@ def run(args) -> int:
     print(f"stream words per channel: {m['stream_words_per_bank']} (x2 banks); delay samples: "
           f"{m['delay_samples']['channel_0']} common, {m['delay_samples']['channels_1_to_n']} per step")
     print(f"wrote {args.out}/{rep['bitstream']} and {args.out}/report.json")
+    cp = t["critical_path"]
     if not t["met"]:
         print(f"rast build: timing NOT met at {args.clock_mhz:g} MHz "
-              f"(fmax {t['fmax_mhz']} MHz); worst path: " + "; ".join(t["critical_path"][:2]),
+              f"(fmax {t['fmax_mhz']} MHz); worst path {cp.get('from')} -> {cp.get('to')}, "
+              f"{cp.get('delay_ns')} ns ({cp.get('logic_ns')} logic), through "
+              f"{', '.join(cp.get('source_lines', [])) or '?'}",
               file=sys.stderr)
         return 0 if args.allow_timing_fail else 1
     return 0

@@ -1,0 +1,215 @@
+"""ECP5 primitives with their registers on, behind behavioural equivalents.
+
+Each component elaborates to plain Amaranth (``lib.memory.Memory``, ``*``)
+when ``platform`` is ``None`` or not an ECP5 (the Amaranth simulator, Verilog
+for cocotb and Verilator) and to vendor primitives on an ECP5 platform:
+
+* :class:`RegisteredRAM`: a simple dual-port RAM whose read data passes the
+  block RAM's own output register (``DP16KD`` with ``REGMODE_B="OUTREG"``).
+  Deep memories are *sliced by width*, never cascaded by depth: a 8192 x 32
+  memory is sixteen ``DP16KD`` in 8192 x 2 mode, each holding two bits of
+  every word, so there is no read multiplexer at all and every block RAM's
+  output is registered inside the block RAM.
+* :class:`RegisteredMultiplier`: a signed product registered in the
+  ``MULT18X18D`` output register (``REG_OUTPUT_CLK="CLK0"``).
+
+The timing reasons are measured in ``/work/shared/ECP5_TIMING.md`` and
+``docs/bitstream.md``: Yosys did not place a following fabric register into
+these primitives' registers, and the unregistered paths (block RAM
+clock-to-out 5.6 ns, multiplier 3.9 ns) limited the replay block.
+"""
+
+from amaranth.hdl import Module, Signal, Const, Cat, ClockSignal, ResetSignal, Instance, signed, unsigned
+from amaranth.lib import wiring
+from amaranth.lib.memory import Memory
+from amaranth.lib.wiring import In, Out
+
+__all__ = ["RegisteredRAM", "RegisteredMultiplier", "is_ecp5", "dp16kd_mode", "DP16KD_MODES"]
+
+#: DP16KD data widths and depths (single port of the pair), widest last.
+DP16KD_MODES = ((1, 16384), (2, 8192), (4, 4096), (9, 2048), (18, 1024))
+#: Address bits below the word address in each mode (ADx[13:shift] is the address).
+_ADDR_SHIFT = {1: 0, 2: 1, 4: 2, 9: 3, 18: 4}
+
+
+def is_ecp5(platform) -> bool:
+    """Whether ``platform`` is an ECP5 (Amaranth's ``LatticeECP5Platform``, or
+    anything with ``family == "ecp5"``, e.g. a stand-in in tests)."""
+    return platform is not None and getattr(platform, "family", None) == "ecp5"
+
+
+def dp16kd_mode(width: int, depth: int):
+    """``(mode_width, slices)`` of the widest DP16KD mode holding ``depth`` words
+    (the fewest block RAMs), or ``None`` when ``depth`` exceeds 16384 (no width
+    slicing possible)."""
+    for w, d in reversed(DP16KD_MODES):
+        if d >= depth:
+            return w, -(-width // w)
+    return None
+
+
+class RegisteredRAM(wiring.Component):
+    """Simple dual-port RAM, read latency 2, both read stages enabled by ``r_en``.
+
+    In a cycle with ``r_en``, the word at ``r_addr`` is read into the read
+    stage and the previous read stage moves to ``r_data`` (so ``r_data`` shows
+    the word addressed two enabled cycles before). ``r_data`` is reset with
+    the domain. Writes (``w_en``) take effect at the clock edge; a read of the
+    address being written returns the old word.
+
+    Parameters
+    ----------
+    width, depth : int
+    init : sequence of int
+        Power-up contents. On ECP5 a memory with initial contents is left to
+        Yosys's inference (the primitive path has no INITVAL packing).
+
+    Members
+    -------
+    w_en : In(1), w_addr : In(range(depth)), w_data : In(width)
+    r_en : In(1), r_addr : In(range(depth)), r_data : Out(width)
+    """
+
+    latency = 2
+
+    def __init__(self, width, depth, init=()):
+        if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
+            raise TypeError(f"RAM width must be a positive integer, not {width!r}")
+        if not isinstance(depth, int) or isinstance(depth, bool) or depth < 2:
+            raise TypeError(f"RAM depth must be an integer of at least 2, not {depth!r}")
+        self._width, self._depth, self._init = width, depth, list(init)
+        super().__init__({
+            "w_en": In(1), "w_addr": In(range(depth)), "w_data": In(width),
+            "r_en": In(1), "r_addr": In(range(depth)), "r_data": Out(width),
+        })
+
+    @property
+    def width(self):
+        return self._width
+
+    @property
+    def depth(self):
+        return self._depth
+
+    def block_rams(self, platform=None):
+        """DP16KD used on ECP5 (0 when the behavioural path is taken)."""
+        mode = dp16kd_mode(self._width, self._depth)
+        return mode[1] if mode and not self._init else 0
+
+    def elaborate(self, platform):
+        mode = dp16kd_mode(self._width, self._depth)
+        if is_ecp5(platform) and mode is not None and not self._init:
+            return self._elaborate_ecp5(*mode)
+        m = Module()
+        m.submodules.mem = mem = Memory(shape=unsigned(self._width), depth=self._depth,
+                                        init=self._init)
+        wr = mem.write_port()
+        rd = mem.read_port(domain="sync")
+        m.d.comb += [wr.en.eq(self.w_en), wr.addr.eq(self.w_addr), wr.data.eq(self.w_data),
+                     rd.en.eq(self.r_en), rd.addr.eq(self.r_addr)]
+        with m.If(self.r_en):
+            m.d.sync += self.r_data.eq(rd.data)
+        return m
+
+    def _elaborate_ecp5(self, w, slices):
+        m = Module()
+        s = _ADDR_SHIFT[w]
+        aw = 14 - s
+        wa = Signal(14)
+        ra = Signal(14)
+        m.d.comb += [wa.eq(self.w_addr << s), ra.eq(self.r_addr << s)]
+        if w == 18:                              # ADA[1:0] are the byte write enables
+            m.d.comb += wa[:2].eq(0b11)
+        padded_w = Signal(slices * w)
+        padded_r = Signal(slices * w)
+        m.d.comb += [padded_w.eq(self.w_data), self.r_data.eq(padded_r)]
+        for k in range(slices):
+            di = Signal(18, name=f"di{k}")
+            do = Signal(18, name=f"do{k}")
+            m.d.comb += [di.eq(padded_w[k * w:(k + 1) * w]), padded_r[k * w:(k + 1) * w].eq(do[:w])]
+            ports = {}
+            for b in range(18):
+                ports[f"i_DIA{b}"] = di[b]
+                ports[f"i_DIB{b}"] = Const(0)
+                ports[f"o_DOB{b}"] = do[b]
+            for b in range(14):
+                ports[f"i_ADA{b}"] = wa[b]
+                ports[f"i_ADB{b}"] = ra[b]
+            for b in range(3):
+                ports[f"i_CSA{b}"] = Const(0)
+                ports[f"i_CSB{b}"] = Const(0)
+            m.submodules[f"bram{k}"] = Instance(
+                "DP16KD",
+                p_DATA_WIDTH_A=w, p_DATA_WIDTH_B=w,
+                p_REGMODE_A="NOREG", p_REGMODE_B="OUTREG",
+                p_RESETMODE="SYNC", p_ASYNC_RESET_RELEASE="SYNC",
+                p_CSDECODE_A="0b000", p_CSDECODE_B="0b000",
+                p_WRITEMODE_A="NORMAL", p_WRITEMODE_B="NORMAL",
+                p_GSR="DISABLED",
+                i_CLKA=ClockSignal("sync"), i_CEA=Const(1), i_OCEA=Const(1), i_WEA=self.w_en,
+                i_RSTA=Const(0),
+                i_CLKB=ClockSignal("sync"), i_CEB=self.r_en, i_OCEB=self.r_en, i_WEB=Const(0),
+                i_RSTB=ResetSignal("sync"),
+                **ports)
+        return m
+
+
+class RegisteredMultiplier(wiring.Component):
+    """``o = a * b`` (signed), registered: latency 1, advancing when ``en``.
+
+    On ECP5 one ``MULT18X18D`` with its output register; operands up to 18
+    bits each. ``o`` is reset with the domain.
+
+    Members
+    -------
+    en : In(1)
+    a : In(signed(a_width)), b : In(signed(b_width))
+    o : Out(signed(a_width + b_width))
+    """
+
+    latency = 1
+
+    def __init__(self, a_width, b_width):
+        for name, v in (("Operand A width", a_width), ("Operand B width", b_width)):
+            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 18:
+                raise ValueError(f"{name} must be an integer in [1, 18], not {v!r}")
+        self._aw, self._bw = a_width, b_width
+        super().__init__({
+            "en": In(1),
+            "a": In(signed(a_width)),
+            "b": In(signed(b_width)),
+            "o": Out(signed(a_width + b_width)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        if not is_ecp5(platform):
+            with m.If(self.en):
+                m.d.sync += self.o.eq(self.a * self.b)
+            return m
+        a18 = Signal(signed(18))
+        b18 = Signal(signed(18))
+        p = Signal(36)
+        m.d.comb += [a18.eq(self.a), b18.eq(self.b), self.o.eq(p[:self._aw + self._bw])]
+        ports = {}
+        for k in range(18):
+            ports[f"i_A{k}"] = a18[k]
+            ports[f"i_B{k}"] = b18[k]
+            ports[f"i_C{k}"] = Const(0)
+        for k in range(36):
+            ports[f"o_P{k}"] = p[k]
+        m.submodules.mult = Instance(
+            "MULT18X18D",
+            p_REG_INPUTA_CLK="NONE", p_REG_INPUTB_CLK="NONE", p_REG_INPUTC_CLK="NONE",
+            p_REG_PIPELINE_CLK="NONE", p_REG_OUTPUT_CLK="CLK0",
+            p_REG_OUTPUT_CE="CE0", p_REG_OUTPUT_RST="RST0",
+            p_CLK0_DIV="ENABLED", p_CLK1_DIV="ENABLED", p_CLK2_DIV="ENABLED", p_CLK3_DIV="ENABLED",
+            p_HIGHSPEED_CLK="NONE", p_GSR="DISABLED", p_CAS_MATCH_REG="FALSE",
+            p_SOURCEB_MODE="B_SHIFT", p_MULT_BYPASS="DISABLED", p_RESETMODE="SYNC",
+            i_SIGNEDA=Const(1), i_SIGNEDB=Const(1), i_SOURCEA=Const(0), i_SOURCEB=Const(0),
+            i_CLK0=ClockSignal("sync"), i_CE0=self.en, i_RST0=ResetSignal("sync"),
+            i_CLK1=Const(0), i_CLK2=Const(0), i_CLK3=Const(0),
+            i_CE1=Const(0), i_CE2=Const(0), i_CE3=Const(0),
+            i_RST1=Const(0), i_RST2=Const(0), i_RST3=Const(0),
+            **ports)
+        return m
