@@ -202,9 +202,10 @@ class BulkBench:
     def __init__(self, dut):
         self.dut = dut
 
-    async def run(self, job, *, n_out=None, timeout_s: float | None = None):
+    async def run(self, job, *, n_out=None, timeout_s: float | None = None, progress: bool = False):
+        import sys
         import time
-        from cocotb.triggers import RisingEdge, Timer, with_timeout
+        from cocotb.triggers import First, RisingEdge, Timer, with_timeout
         from rast.sim import bulk
         d = run_dir()
         bulk.write_job(job, d, n_out=n_out)
@@ -212,7 +213,18 @@ class BulkBench:
         await Timer(20, "ns")
         t0 = time.monotonic()
         self.dut.start.value = 1
-        if timeout_s is not None:
+        if progress:
+            # one wake-up per ~2 M cycles: no per-sample Python
+            total = job.n_in
+            chunk = 2_000_000 * bulk.CLOCK_PERIOD_NS
+            while not int(self.dut.done.value):
+                await First(RisingEdge(self.dut.done), Timer(chunk, "ns"))
+                done_in = int(self.dut.in_idx.value)
+                el = time.monotonic() - t0
+                print(f"[rast cosim] {done_in / total:6.1%}  {done_in:>11,d}/{total:,d} samples  "
+                      f"{el:6.1f} s  {done_in / max(el, 1e-9) / 1e6:5.2f} M samples/s",
+                      file=sys.stderr, flush=True)
+        elif timeout_s is not None:
             # simulated-time guard against a wedged DUT: generous 4x cycles of the job
             limit = (job.n_in * 4 + 100_000) * bulk.CLOCK_PERIOD_NS
             await with_timeout(RisingEdge(self.dut.done), limit, "ns")
