@@ -1,0 +1,21 @@
+"""Formal checks with yowasp-sby (smtbmc yices): see tests/formal/replay_formal.py."""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent / "formal"))
+from replay_formal import run_check   # noqa: E402
+
+
+@pytest.mark.parametrize("name", [
+    "stream_address",          # k-induction: index < active length <= depth, always
+    "stream_address_interp",
+    "delay_exact",             # BMC: output == input of 3 + d enabled samples earlier
+    pytest.param("delay_exact_deep", marks=pytest.mark.slow),
+])
+def test_formal(name, tmp_path):
+    ok, log = run_check(name, tmp_path)
+    tail = "\n".join(line for line in log.splitlines() if "summary" in line or "DONE" in line)
+    assert ok, f"{name} failed:\n{tail}\n(full log in {tmp_path})"
