@@ -135,7 +135,7 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
           label: str = "") -> Build:
     """Build ``sources`` (file name -> Verilog text) once per parameter set.
 
-    ``label`` only makes the directory name readable; identity is the hash.
+    ``label`` is only noted in the build directory; identity is the hash.
     """
     simulator = simulator or default_simulator()
     if simulator not in SIMULATORS:
@@ -158,9 +158,14 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
     h.update(json.dumps([simulator, toplevel, waves, args, TIMESCALE,
                          _tool_versions(simulator)]).encode())
     digest = h.hexdigest()[:16]
-    label = re.sub(r"[^A-Za-z0-9_.-]+", "_", label or toplevel)
-    bdir = SIM_BUILD / f"{simulator}-{label}-{digest}"
+    # the directory is named by identity only (simulator, top, hash), so callers that
+    # label the same Verilog differently still share one build; the label is noted inside
+    bdir = SIM_BUILD / f"{simulator}-{toplevel}-{digest}"
     bdir.mkdir(parents=True, exist_ok=True)
+    if label:
+        labels = bdir / "labels.txt"
+        with open(labels, "a") as f:
+            f.write(re.sub(r"\s+", "_", label) + "\n")
     stamp = bdir / "BUILD_OK"
     t0 = time.monotonic()
     built = False
