@@ -93,7 +93,7 @@ def run(args) -> int:
     sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
                                max_increment=c.max_increment)
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
-                     label=f"cosim{c.channels}")
+                     label=f"cosim{c.channels}", public_all=False)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
     params = dict(config=config, seconds=args.seconds, channels=args.channels, overlap=args.overlap,

@@ -18,7 +18,7 @@ zero words generated in the wrapper (the idle time between pulses), for
 sees every sample of the radar time line; only the samples that carry a pulse
 cross the file boundary.
 
-Valid gaps: before each input sample a gap of ``1..gap_max`` cycles is
+Valid gaps: before each input sample a gap of ``1..2**ceil(log2(gap_max))`` cycles is
 inserted with probability ``gap_thresh/256`` (a 32-bit LFSR seeded from
 ``seed``); output ``ready`` is low with probability ``stall_thresh/256``.
 
@@ -232,7 +232,7 @@ module rast_bulk (
                 end
                 lfsr_in <= lfsr_next(lfsr_next(lfsr_in));
                 if ({{24'd0, lfsr_in[7:0]}} < gap_thresh[31:0])
-                    gap_left <= 64'd1 + ({{48'd0, lfsr_in[23:8]}} % (gap_max == 0 ? 64'd1 : gap_max));
+                    gap_left <= 64'd1 + ({{48'd0, lfsr_in[23:8]}} & gap_max);
             end else if (!reg_here && gap_left != 64'd0) begin
                 gap_left <= gap_left - 64'd1;
             end
@@ -333,7 +333,9 @@ def write_job(job: BulkJob, directory: Path, n_out: int | None = None) -> None:
     cap = list(job.cap_offsets or [])
     values = dict(n_src=len(job.src), active=job.active, pri=job.pri, pulses=job.pulses,
                   flush=job.flush, n_regs=len(job.regs), n_out=job.n_in if n_out is None else n_out,
-                  gap_thresh=job.gap_thresh, gap_max=max(1, job.gap_max),
+                  gap_thresh=job.gap_thresh,
+                  # the wrapper draws 1 + (random & mask): a mask, not a modulo (no divider per cycle)
+                  gap_max=(1 << max(0, job.gap_max - 1).bit_length()) - 1,
                   stall_thresh=job.stall_thresh, seed=job.seed,
                   cap_mode=0 if job.cap_offsets is None else 1, n_cap=len(cap),
                   timeout=job.timeout, drain=int(job.drain))

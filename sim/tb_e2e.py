@@ -74,3 +74,12 @@ async def e2e(dut):
         sb._fail("maximum Doppler off by more than one bin: " + "; ".join(
             f"{c['windmill']}: RTL {c['measured_hz']:.1f} Hz, physics {c['physics_hz']:.1f} Hz "
             f"(bin {c['bin_hz']:.1f} Hz, frame at {c['frame_time_s']:.3f} s)" for c in bad))
+
+
+@cocotb.test()
+async def bench(dut):
+    """Only the RTL run of the e2e job (no model): the benchmark's cosim figure."""
+    p = params()
+    e = prepare(p["config"], p["seconds"], channels=p.get("channels"))
+    summary = await BulkBench(dut).run(e.scenario.job, progress=True)
+    save_json(run_dir() / "bench.json", dict(summary, info=e.info))

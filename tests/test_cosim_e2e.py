@@ -25,7 +25,7 @@ def run_e2e(simulator, seconds, name):
     c = e.scenario.contract
     sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
                                max_increment=c.max_increment)
-    run_dir = cocotb_run(sources, top, "rast.sim.tb_e2e", "e2e", simulator=simulator,
+    run_dir = cocotb_run(sources, top, "rast.sim.tb_e2e", "e2e", simulator=simulator, public_all=False,
                          label=f"e2e{c.channels}", name=name,
                          tb_params=dict(config=str(CONFIG), seconds=seconds))
     return json.loads((run_dir / "e2e.json").read_text())

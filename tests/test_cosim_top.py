@@ -20,7 +20,7 @@ STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 def _run(simulator, channels, kind, seed, stalls, interpolate=False):
     sources, top = top_sources(channels, interpolate=interpolate, **TEST_CONTRACT)
     g, s = STALLS[stalls]
-    cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator,
+    cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator, public_all=False,
                label=f"top{channels}{'i' if interpolate else ''}",
                name=f"{kind}-{channels}ch-{stalls}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=g,
