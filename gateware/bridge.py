@@ -82,8 +82,14 @@ class UARTBridge(wiring.Component):
             m.d.sync += idle.eq(idle + 1)
         m.d.comb += timed_out.eq(idle == self._timeout)
 
+        # Every bus output comes straight from a flip-flop: the bus fans out to
+        # all channels' registers across the device (timing, see docs/bitstream.md).
         bus = self.bus
-        m.d.comb += [bus.addr.eq(addr), bus.w_data.eq(data)]
+        w_stb = Signal()
+        r_stb = Signal()
+        m.d.comb += [bus.addr.eq(addr), bus.w_data.eq(data), bus.w_stb.eq(w_stb),
+                     bus.r_stb.eq(r_stb)]
+        m.d.sync += [w_stb.eq(0), r_stb.eq(0)]
 
         with m.FSM():
             with m.State("IDLE"):
@@ -102,6 +108,7 @@ class UARTBridge(wiring.Component):
                     with m.If(n == 1):
                         m.d.sync += n.eq(0)
                         with m.If(cmd == CMD_READ):
+                            m.d.sync += r_stb.eq(1)
                             m.next = "READ"
                         with m.Elif(cmd == CMD_BURST):
                             m.next = "COUNT"
@@ -125,16 +132,15 @@ class UARTBridge(wiring.Component):
                 with m.Elif(stb):
                     m.d.sync += [data.eq(Cat(data[8:], byte)), n.eq(n + 1)]
                     with m.If(n == 3):
+                        m.d.sync += w_stb.eq(1)
                         m.next = "WRITE"
-            with m.State("WRITE"):
-                m.d.comb += bus.w_stb.eq(1)
+            with m.State("WRITE"):                   # w_stb is high in this cycle
                 m.d.sync += count.eq(count - 1)
                 with m.If(count == 1):
                     m.next = "ACK"
                 with m.Else():
                     m.next = "DATA"
-            with m.State("READ"):
-                m.d.comb += bus.r_stb.eq(1)
+            with m.State("READ"):                    # r_stb is high in this cycle
                 m.next = "READ_DATA"
             with m.State("READ_DATA"):
                 m.d.sync += data.eq(bus.r_data)

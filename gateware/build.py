@@ -143,9 +143,9 @@ class _Progress:
             print(f"[{time.monotonic() - self.t0:6.1f} s] {msg}", file=self.stream, flush=True)
 
 
-_NEXTPNR_SHOW = re.compile(r"(Max frequency for clock|Device utilisation|TRELLIS_COMB|TRELLIS_FF|"
-                           r"DP16KD|MULT18X18D|Running placer|Running router|HeAP Placer|"
-                           r"Router1 time|Router2 time|Program finished|ERROR|Max delay)")
+_NEXTPNR_SHOW = re.compile(r"(Max frequency for clock|Device utilisation|\s(TRELLIS_COMB|TRELLIS_FF|"
+                           r"DP16KD|MULT18X18D):\s+\d|Running placer|Running router|HeAP Placer Time|"
+                           r"Router1 time|Router2 time|Program finished|ERROR)")
 
 
 def _run(cmd, cwd, env, log_name, progress, show=None):

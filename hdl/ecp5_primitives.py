@@ -155,10 +155,17 @@ class RegisteredRAM(wiring.Component):
 
 
 class RegisteredMultiplier(wiring.Component):
-    """``o = a * b`` (signed), registered: latency 1, advancing when ``en``.
+    """``o = a * b`` (signed), registered, advancing when ``en``.
 
-    On ECP5 one ``MULT18X18D`` with its output register; operands up to 18
-    bits each. ``o`` is reset with the domain.
+    On ECP5 one ``MULT18X18D`` with its output register, and with
+    ``input_reg`` its input registers too; operands up to 18 bits each. The
+    registers are reset with the domain.
+
+    Parameters
+    ----------
+    a_width, b_width : int
+    input_reg : bool
+        Register the operands inside the multiplier (latency 2, else 1).
 
     Members
     -------
@@ -167,13 +174,13 @@ class RegisteredMultiplier(wiring.Component):
     o : Out(signed(a_width + b_width))
     """
 
-    latency = 1
-
-    def __init__(self, a_width, b_width):
+    def __init__(self, a_width, b_width, *, input_reg=False):
         for name, v in (("Operand A width", a_width), ("Operand B width", b_width)):
             if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 18:
                 raise ValueError(f"{name} must be an integer in [1, 18], not {v!r}")
-        self._aw, self._bw = a_width, b_width
+        if not isinstance(input_reg, bool):
+            raise TypeError(f"Input register must be a bool, not {input_reg!r}")
+        self._aw, self._bw, self._input_reg = a_width, b_width, input_reg
         super().__init__({
             "en": In(1),
             "a": In(signed(a_width)),
@@ -181,12 +188,22 @@ class RegisteredMultiplier(wiring.Component):
             "o": Out(signed(a_width + b_width)),
         })
 
+    @property
+    def latency(self):
+        return 2 if self._input_reg else 1
+
     def elaborate(self, platform):
         m = Module()
         if not is_ecp5(platform):
+            a, b = self.a, self.b
+            if self._input_reg:
+                a, b = Signal.like(self.a), Signal.like(self.b)
+                with m.If(self.en):
+                    m.d.sync += [a.eq(self.a), b.eq(self.b)]
             with m.If(self.en):
-                m.d.sync += self.o.eq(self.a * self.b)
+                m.d.sync += self.o.eq(a * b)
             return m
+        inreg = "CLK0" if self._input_reg else "NONE"
         a18 = Signal(signed(18))
         b18 = Signal(signed(18))
         p = Signal(36)
@@ -200,7 +217,9 @@ class RegisteredMultiplier(wiring.Component):
             ports[f"o_P{k}"] = p[k]
         m.submodules.mult = Instance(
             "MULT18X18D",
-            p_REG_INPUTA_CLK="NONE", p_REG_INPUTB_CLK="NONE", p_REG_INPUTC_CLK="NONE",
+            p_REG_INPUTA_CLK=inreg, p_REG_INPUTB_CLK=inreg, p_REG_INPUTC_CLK="NONE",
+            p_REG_INPUTA_CE="CE0", p_REG_INPUTB_CE="CE0",
+            p_REG_INPUTA_RST="RST0", p_REG_INPUTB_RST="RST0",
             p_REG_PIPELINE_CLK="NONE", p_REG_OUTPUT_CLK="CLK0",
             p_REG_OUTPUT_CE="CE0", p_REG_OUTPUT_RST="RST0",
             p_CLK0_DIV="ENABLED", p_CLK1_DIV="ENABLED", p_CLK2_DIV="ENABLED", p_CLK3_DIV="ENABLED",

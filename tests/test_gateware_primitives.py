@@ -87,21 +87,27 @@ def test_ram_with_init_falls_back_to_inference():
     assert "DP16KD" not in text and "$mem" in text
 
 
-def test_multiplier_model():
-    dut = RegisteredMultiplier(16, 17)
+@pytest.mark.parametrize("input_reg", [False, True])
+def test_multiplier_model(input_reg):
+    dut = RegisteredMultiplier(16, 17, input_reg=input_reg)
+    assert dut.latency == (2 if input_reg else 1)
     rng = random.Random(7)
 
     async def bench(ctx):
-        expect = 0
+        stage, expect = (0, 0), 0
         for _ in range(300):
             a, b, en = rng.randrange(-(1 << 15), 1 << 15), rng.randrange(-(1 << 16), 1 << 16), rng.random() < 0.8
             ctx.set(dut.a, a); ctx.set(dut.b, b); ctx.set(dut.en, en)
             await ctx.tick()
             if en:
-                expect = a * b
+                if input_reg:
+                    expect, stage = stage[0] * stage[1], (a, b)
+                else:
+                    expect = a * b
             assert ctx.get(dut.o) == expect
-        ctx.set(dut.a, -(1 << 15)); ctx.set(dut.b, -(1 << 16)); ctx.set(dut.en, 1)
-        await ctx.tick()
+        for _ in range(dut.latency):
+            ctx.set(dut.a, -(1 << 15)); ctx.set(dut.b, -(1 << 16)); ctx.set(dut.en, 1)
+            await ctx.tick()
         assert ctx.get(dut.o) == 1 << 31                  # the extreme product fits
 
     sim = Simulator(dut)
@@ -116,6 +122,8 @@ def test_multiplier_ecp5_structure():
     assert 'parameter \\REG_OUTPUT_CLK "CLK0"' in text
     assert 'parameter \\REG_INPUTA_CLK "NONE"' in text and 'parameter \\REG_PIPELINE_CLK "NONE"' in text
     assert "$mul" not in text
+    text = _rtlil(RegisteredMultiplier(18, 17, input_reg=True), FakeECP5())
+    assert 'parameter \\REG_INPUTA_CLK "CLK0"' in text and 'parameter \\REG_INPUTB_CLK "CLK0"' in text
 
 
 def test_parameter_errors():
