@@ -127,12 +127,16 @@ class ReplayModel:
         self.stream_addr = 0
         self.overflow = 0
         self.steps = 0
-        # Per-step histories (lists of arrays, concatenated on demand).
+        # Per-step histories (lists of arrays, concatenated on demand), kept
+        # from absolute step self._base on: only the last `_lookback` steps
+        # can influence new outputs, so run() costs O(new steps + lookback).
         self._x = [np.zeros((2, 0), dtype=np.int64)]
         self._d = [np.zeros((N, 0), dtype=np.int64)]
         self._g = [np.zeros((N, 0), dtype=np.int64)]
         self._w = [np.zeros((N, 2, 0), dtype=np.int64)]
-        self._y = [np.zeros((2, 0), dtype=np.int64)]
+        self._base = 0
+        self._lookback = (2 * c.latency + c.stream_latency + 16 + c.max_delay
+                          + (N - 1) * c.max_increment)
 
     # ---- registers -------------------------------------------------------
     def _swap(self, l):
@@ -256,19 +260,24 @@ class ReplayModel:
         n0 = self.steps
         self.steps += T
         y = self._outputs(n0, self.steps)
-        self._y.append(y)
         sat = y[2]
         if sat.any():
             self.overflow = 1
         return y[0], y[1]
 
     def _outputs(self, n0, n1):
+        """Outputs of absolute steps [n0, n1), computed over a window that
+        starts at least ``_lookback`` steps earlier (or at step 0, exactly):
+        entries early in a window that starts later are wrong but unused."""
         c, N = self.c, self.c.channels
-        x = np.concatenate(self._x, axis=1)
-        d = np.concatenate(self._d, axis=1)
-        g = np.concatenate(self._g, axis=1)
-        w = np.concatenate(self._w, axis=2)
+        keep = max(0, n0 - self._lookback - self._base)        # drop what can no longer matter
+        x = np.concatenate(self._x, axis=1)[:, keep:]
+        d = np.concatenate(self._d, axis=1)[:, keep:]
+        g = np.concatenate(self._g, axis=1)[:, keep:]
+        w = np.concatenate(self._w, axis=2)[:, :, keep:]
+        self._base += keep
         self._x, self._d, self._g, self._w = [x], [d], [g], [w]
+        n0, n1 = n0 - self._base, n1 - self._base
         SL, Lc = c.stream_latency, c.cmult_latency
         t = x
         total = np.zeros((2, n1), dtype=np.int64)
