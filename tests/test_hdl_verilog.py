@@ -12,6 +12,7 @@ from rast.model.fixedpoint import pack_iq
     ["--channels", "1", "--stream-depth", "16", "--max-delay", "14", "--max-increment", "0"],
     ["--channels", "3", "--stream-depth", "64", "--max-delay", "62", "--max-increment", "14",
      "--interpolate", "--cmult-form", "3mult"],
+    ["--channels", "16", "--stream-depth", "16", "--max-delay", "30", "--max-increment", "6"],
 ])
 def test_verilog_lints_clean(tmp_path, args):
     out = tmp_path / "replay.v"
