@@ -286,3 +286,13 @@ def test_forced_switch_racing_a_wrap():
     # each round: the wrap completes the pending switch and the write forces
     # another in the same sample, so the bank is back where it was
     assert banks == [0] * len(banks) and len(banks) == 10
+
+
+def test_sixteen_channels():
+    rng = np.random.default_rng(16)
+    inits = rand_inits(rng, 16, depth=4)
+    dut = WindFarmReplay(16, init=inits, stream_depth=4, max_delay=5, max_increment=2)
+    assert dut.latency == 54
+    T = 160
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    check(dut, inits, xi, xq, valid=(1, 1, 0), name="N=16")
