@@ -29,7 +29,7 @@ def test_cmult(simulator, form, en_pattern):
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 # max_delay=0 is left out: its port `delay` is 0 bits wide and Amaranth writes
 # `input [-1:0] delay`, which Verilator rejects (ASCRANGE); see the report.
-@pytest.mark.parametrize("max_delay", [1, 2, 6, 37])
+@pytest.mark.parametrize("max_delay", [1, 6])   # RAM depth 4 with slack; depth 8 = max + 2 exactly
 @pytest.mark.parametrize("en_pattern", ["none", "10", "random"])
 def test_delay_line(simulator, max_delay, en_pattern):
     dut = DelayLine(32, max_delay)

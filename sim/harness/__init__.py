@@ -1,0 +1,1 @@
+"""Bare Verilator C++ harness for the benchmark (see build.py)."""
