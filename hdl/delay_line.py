@@ -71,6 +71,12 @@ class DelayLine(wiring.Component):
         self.wp, self.ra = wp, ra           # for formal checks
         m.d.comb += [wr.addr.eq(wp), wr.data.eq(self.i), wr.en.eq(self.en),
                      rd.addr.eq(ra), rd.en.eq(self.en)]
+        # The RAM read register has no defined power-up value (X in Icarus):
+        # the first enabled sample keeps the output at its initial 0 instead of
+        # loading it (a clock enable, no data multiplexer).
+        primed = Signal()
         with m.If(self.en):
-            m.d.sync += [wp.eq(wp + 1), ra.eq(wp - self.delay), self.o.eq(rd.data)]
+            m.d.sync += [wp.eq(wp + 1), ra.eq(wp - self.delay), primed.eq(1)]
+            with m.If(primed):
+                m.d.sync += self.o.eq(rd.data)
         return m

@@ -156,8 +156,13 @@ class StreamReplay(wiring.Component):
         rd0 = mem.read_port(domain="sync")
         w0 = Signal(IQ(STREAM_WIDTH))
         m.d.comb += [rd0.addr.eq(Cat(idx, bank)), rd0.en.eq(en)]
+        # The RAM read registers have no defined power-up value (X in Icarus):
+        # the first enabled sample keeps the word registers at their initial 0.
+        primed = Signal()
         with m.If(en):
-            m.d.sync += w0.eq(rd0.data)
+            m.d.sync += primed.eq(1)
+            with m.If(primed):
+                m.d.sync += w0.eq(rd0.data)
         if not self._interpolate:
             m.d.comb += self.o.eq(w0)
             return m
@@ -171,8 +176,9 @@ class StreamReplay(wiring.Component):
         fd1 = Signal(INTERP_FRAC_BITS); fd2 = Signal(INTERP_FRAC_BITS); fa = Signal(INTERP_FRAC_BITS)
         W = STREAM_WIDTH
         with m.If(en):
-            m.d.sync += [w1.eq(rd1.data), fd1.eq(frac[F - INTERP_FRAC_BITS:]), fd2.eq(fd1),
-                         fa.eq(fd2)]
+            m.d.sync += [fd1.eq(frac[F - INTERP_FRAC_BITS:]), fd2.eq(fd1), fa.eq(fd2)]
+            with m.If(primed):
+                m.d.sync += w1.eq(rd1.data)
         out = Signal(IQ(W))
         for part in ("re", "im"):
             diff = Signal(signed(W + 1), name=f"diff_{part}")
