@@ -140,7 +140,15 @@ module rast_bulk (
     reg [{p.in_width - 1}:0] src [0:SRC_DEPTH-1];
     reg [127:0] regs [0:REG_DEPTH-1];
 
-    reg rst = 1'b1;
+    // Reset rises at 1 ns, not at time 0: Yosys-written `always @*` blocks only
+    // run on an event, and Icarus gives no event for a declaration initialiser,
+    // so a reset that is 1 from the start never reaches their outputs (they stay X).
+    reg rst = 1'b0;
+`ifndef RAST_EXTERNAL_CLOCK
+    initial #1 rst = 1'b1;
+`else
+    initial rst = 1'b1;
+`endif
     reg running = 1'b0;
     reg [3:0] rst_count = 4'd0;
     integer fd_out;

@@ -32,7 +32,7 @@ from pathlib import Path
 __all__ = [
     "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "FALLBACK_VERILATOR_WAIVERS",
     "verilator_waivers", "setup_verilator", "available_simulators", "default_simulator",
-    "waves_requested", "Build", "build", "run", "SimulationFailed",
+    "waves_requested", "Build", "build", "run", "SimulationFailed", "icarus_time_zero_kick",
 ]
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -149,6 +149,22 @@ def _get_runner(simulator: str, public_all: bool = True):
     return r
 
 
+_YOSYS_KICK = re.compile(r"^(\s*)reg (\\\$auto\$verilog_backend\S*)\s*=\s*0;\s*$", re.M)
+
+
+def icarus_time_zero_kick(text: str) -> str:
+    """Make Yosys' time-zero trigger fire under Icarus.
+
+    Yosys' Verilog back end puts ``if (\\$auto$verilog_backend...) begin end``
+    into every ``always @*`` and declares that reg ``= 0``, so that each block
+    runs once at time 0. Icarus creates no event for a declaration
+    initialiser, so blocks whose inputs never change (a pending flag that
+    stays 0) never run and their outputs stay X. Adding ``initial #0 ... = 1``
+    gives the intended event; the reg has no other use.
+    """
+    return _YOSYS_KICK.sub(lambda m: f"{m.group(0)}\n{m.group(1)}initial #0 {m.group(2)} = 1'b1;", text)
+
+
 def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = None,
           waves: bool | None = None, build_args: tuple[str, ...] = (),
           label: str = "", public_all: bool = True) -> Build:
@@ -172,6 +188,7 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
                 *build_args]
     else:
         args = list(build_args)
+        sources = {k: icarus_time_zero_kick(v) for k, v in sources.items()}
 
     h = hashlib.sha256()
     for name in sorted(sources):
