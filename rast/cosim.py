@@ -108,7 +108,7 @@ def run(args) -> int:
     wall = time.monotonic() - t0
     rep_path = run_dir / "e2e.json"
     rep = json.loads(rep_path.read_text()) if rep_path.exists() else {}
-    if (run_dir / "e2e.npz").exists():
+    if (run_dir / "e2e.npz").exists() and rep.get("doppler"):
         shutil.copy(run_dir / "e2e.npz", out / "e2e.npz")
         _png(out / "spectrogram.png", e, np.load(run_dir / "e2e.npz"), args.overlap)
     lines = [f"rast cosim {config}",
@@ -122,7 +122,7 @@ def run(args) -> int:
                   f"RTL run time        {rep['rtl_wall_s']:.1f} s wall, "
                   f"{rep['samples_per_s'] / 1e6:.2f} M simulated samples/s",
                   f"model run time      {rep['model_s']:.1f} s",
-                  f"spectrograms equal  {rep['spectrograms_equal']}"]
+                  f"spectrograms equal  {rep['spectrograms_equal'] if rep['doppler'] else 'n/a (less than one CPI)'}"]
         for d in rep["doppler"]:
             state = ("ok" if d["ok"] else "OFF BY MORE THAN ONE BIN") if d["reached"] else \
                 "its peak is not inside this run"
