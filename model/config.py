@@ -133,7 +133,7 @@ class Farm:
     sample_rate_mhz: float
     radar: Radar
     windmills: tuple[Windmill, ...]
-    ram_depth: int = 32768              # stream words available per channel (gateware depth)
+    ram_depth: int | None = None        # stream words per channel bank of the target gateware; None: no limit
     stream_oversampling: float = 4.0    # stream rate ≥ this × max Doppler
     output_gain_db: float = 0.0         # level of the loudest windmill's peak
 
@@ -376,7 +376,7 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
     prf = top.number("prf", 20_000.0, positive=True, unit="Hz")
     pulse_width = top.number("pulse_width", 2.0, positive=True, unit="µs")
     cpi = top.number("cpi", 100.0, positive=True, unit="ms")
-    ram_depth = top.integer("ram_depth", 32768, minimum=2)
+    ram_depth = top.integer("ram_depth", None, minimum=2)
     oversampling = top.number("stream_oversampling", 4.0, unit="× max Doppler")
     if oversampling is not None and oversampling < 2:
         top.problem("stream_oversampling", f"must be at least 2 (Nyquist), not {oversampling!r}")

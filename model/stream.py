@@ -186,7 +186,7 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True) -> FarmStrea
         if w.stream_rate not in (None, "rts") and w.stream_rate > farm.sample_rate_hz:
             problems.append(f"windmill '{w.name}': 'stream_rate' ({w.stream_rate:g} Hz) must not "
                             f"exceed the RTS sample rate ({farm.sample_rate_hz:g} Hz)")
-        elif check_ram_depth and plan.length > farm.ram_depth:
+        elif check_ram_depth and farm.ram_depth is not None and plan.length > farm.ram_depth:
             problems.append(
                 f"windmill '{w.name}': its stream needs {plan.length} words (one period of "
                 f"{plan.period_s:.4g} s at {plan.stream_rate_hz:.6g} Hz) but 'ram_depth' is "
