@@ -53,9 +53,11 @@ class RegisteredRAM(wiring.Component):
 
     In a cycle with ``r_en``, the word at ``r_addr`` is read into the read
     stage and the previous read stage moves to ``r_data`` (so ``r_data`` shows
-    the word addressed two enabled cycles before). ``r_data`` is reset with
-    the domain. Writes (``w_en``) take effect at the clock edge; a read of the
-    address being written returns the old word.
+    the word addressed two enabled cycles before). The read stage has no
+    defined power-up value, so the first enabled cycle after power-up (or
+    reset) leaves ``r_data`` at 0 rather than loading it. ``r_data`` is reset
+    with the domain. Writes (``w_en``) take effect at the clock edge; a read
+    of the address being written returns the old word.
 
     Parameters
     ----------
@@ -107,12 +109,18 @@ class RegisteredRAM(wiring.Component):
         rd = mem.read_port(domain="sync")
         m.d.comb += [wr.en.eq(self.w_en), wr.addr.eq(self.w_addr), wr.data.eq(self.w_data),
                      rd.en.eq(self.r_en), rd.addr.eq(self.r_addr)]
+        primed = Signal()
         with m.If(self.r_en):
-            m.d.sync += self.r_data.eq(rd.data)
+            m.d.sync += primed.eq(1)
+            with m.If(primed):
+                m.d.sync += self.r_data.eq(rd.data)
         return m
 
     def _elaborate_ecp5(self, w, slices):
         m = Module()
+        primed = Signal()
+        with m.If(self.r_en):
+            m.d.sync += primed.eq(1)
         s = _ADDR_SHIFT[w]
         aw = 14 - s
         wa = Signal(14)
@@ -148,7 +156,7 @@ class RegisteredRAM(wiring.Component):
                 p_GSR="DISABLED",
                 i_CLKA=ClockSignal("sync"), i_CEA=Const(1), i_OCEA=Const(1), i_WEA=self.w_en,
                 i_RSTA=Const(0),
-                i_CLKB=ClockSignal("sync"), i_CEB=self.r_en, i_OCEB=self.r_en, i_WEB=Const(0),
+                i_CLKB=ClockSignal("sync"), i_CEB=self.r_en, i_OCEB=self.r_en & primed, i_WEB=Const(0),
                 i_RSTB=ResetSignal("sync"),
                 **ports)
         return m

@@ -42,11 +42,11 @@ def test_ram_model():
     dut = RegisteredRAM(W, D)
     rng = random.Random(3)
     mem = [0] * D
-    stage, out = 0, 0
+    stage, out, primed = 0, 0, False
     log = []
 
     async def bench(ctx):
-        nonlocal stage, out
+        nonlocal stage, out, primed
         for cyc in range(600):
             we, re_ = rng.random() < 0.5, rng.random() < 0.7
             wa, ra, wd = rng.randrange(D), rng.randrange(D), rng.randrange(1 << W)
@@ -56,7 +56,9 @@ def test_ram_model():
             ctx.set(dut.r_en, re_); ctx.set(dut.r_addr, ra)
             await ctx.tick()
             if re_:
-                out, stage = stage, mem[ra]
+                if primed:                  # the first enabled read leaves r_data at 0
+                    out = stage
+                stage, primed = mem[ra], True
             if we:
                 mem[wa] = wd
             got = ctx.get(dut.r_data)
