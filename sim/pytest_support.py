@@ -26,7 +26,7 @@ SIMULATOR_PARAMS = [pytest.param("verilator", id="verilator"),
 
 def pytest_addoption(parser):
     parser.addoption("--waves", action="store_true", default=False,
-                     help="cosimulation: build with tracing and dump FST waves; the path is printed "
+                     help="cosimulation: build with tracing and dump waves (VCD/FST); the path is printed "
                           "(same as RAST_WAVES=1)")
 
 

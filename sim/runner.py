@@ -12,7 +12,7 @@ worker) that simulates the same Verilog reuses one build. A file lock
 serialises the build; a stamp file marks it complete.
 
 Waveforms: ``pytest --waves`` (see ``tests/conftest.py``) or ``RAST_WAVES=1``
-builds with tracing and dumps FST (Verilator) / FST (Icarus) for each run; the
+builds with tracing and dumps VCD (Verilator) / FST (Icarus) for each run; the
 path is printed and put into the failure message.
 """
 
@@ -183,8 +183,9 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
     if simulator == "verilator":
         setup_verilator()
         args = ["--timing", "-CFLAGS", "-fcoroutines", "-Wall", *_waiver_args(verilator_waivers()),
-                # trace as FST: smaller than VCD for long runs
-                *(["--trace-fst", "--trace-structs"] if waves else []),
+                # VCD (cocotb adds --trace): the wheel's FST writer needs lz4.h,
+                # which a bare machine does not have
+                *(["--trace-structs"] if waves else []),
                 *build_args]
     else:
         args = list(build_args)
