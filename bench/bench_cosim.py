@@ -69,8 +69,7 @@ def main(argv=None) -> int:
     if hdir.exists():
         shutil.rmtree(hdir)
     hdir.mkdir()
-    for f in ("cfg.hex", "src.hex", "regs.hex"):
-        shutil.copy(run_dir / f, hdir / f)
+    bulk.write_job(e.scenario.job, hdir)      # the same job files the cocotb run wrote
     t = time.monotonic()
     out = subprocess.run([str(exe)], cwd=hdir, capture_output=True, text=True, check=True)
     harness_process = time.monotonic() - t

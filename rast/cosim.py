@@ -104,7 +104,7 @@ def run(args) -> int:
                              testcase="e2e", extra_env={"RAST_TB_PARAMS": json.dumps(params)})
     except runner.SimulationFailed as err:
         failure = str(err)
-        run_dir = b.build_dir / "runs" / f"cosim-{Path(config).stem}-{args.seconds:g}s"
+        run_dir = err.run_dir
     wall = time.monotonic() - t0
     rep_path = run_dir / "e2e.json"
     rep = json.loads(rep_path.read_text()) if rep_path.exists() else {}

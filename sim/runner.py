@@ -25,6 +25,7 @@ import os
 import re
 import shutil
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -127,7 +128,8 @@ class Build:
 
 
 class SimulationFailed(AssertionError):
-    pass
+    """A cosimulation failed; ``run_dir`` holds its logs and data."""
+    run_dir: Path | None = None
 
 
 def _get_runner(simulator: str, public_all: bool = True):
@@ -252,7 +254,7 @@ def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
         quiet: bool = False) -> Path:
     """Run the cocotb ``test_module`` against build ``b`` in its own directory.
 
-    ``name`` names the run directory (``<build>/runs/<name>``), which the
+    ``name`` prefixes the run directory (``<build>/runs/<name>-<random>``), which the
     testbench receives as ``RAST_RUN_DIR`` for its data files. Raises
     :class:`SimulationFailed` with the testbench's own failure report (first
     mismatch, its time, channel and both values) and the wave file path.
@@ -262,10 +264,11 @@ def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
     if b.simulator == "verilator":
         setup_verilator()
     name = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)[:120]
-    run_dir = b.build_dir / "runs" / name
-    if run_dir.exists():
-        shutil.rmtree(run_dir)
-    run_dir.mkdir(parents=True)
+    # one fresh directory per run, never shared: other sessions and xdist workers
+    # may run the same test on the same build at the same time
+    runs = b.build_dir / "runs"
+    runs.mkdir(parents=True, exist_ok=True)
+    run_dir = Path(tempfile.mkdtemp(prefix=f"{name}-", dir=runs))
     env = {"RAST_RUN_DIR": str(run_dir), **(extra_env or {})}
     runner = get_runner(b.simulator)
     results = run_dir / "results.xml"
@@ -310,7 +313,12 @@ def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
         msg.append(f"waves: {wave}" if wave else
                    "waves: rerun with --waves or RAST_WAVES=1 to dump them")
         msg.append(f"run directory: {run_dir}")
-        raise SimulationFailed("\n".join(msg))
+        err = SimulationFailed("\n".join(msg))
+        err.run_dir = run_dir
+        raise err
+    # a passing run keeps its reports, not its bulk stimulus (tens of MB for 1 s of radar time)
+    for f in ("src.hex", "regs.hex"):
+        (run_dir / f).unlink(missing_ok=True)
     return run_dir
 
 
