@@ -5,6 +5,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
+from .ecp5_primitives import RegisteredMultiplier
 
 __all__ = ["ComplexMultiplier"]
 
@@ -72,31 +73,38 @@ class ComplexMultiplier(wiring.Component):
         return 3 if self._form == "4mult" else 4
 
     def elaborate(self, platform):
+        # Stage by stage (4mult): operands into the multipliers' input
+        # registers, products into their output registers (MULT18X18D on
+        # ECP5), then difference/sum and rounding together in one fabric stage.
+        # (3mult: the pre-additions take a fabric stage first.) The block RAM
+        # outputs feeding ``a`` and ``b`` thus reach a register with no logic
+        # on the way: that route, not the arithmetic, limited the first
+        # registered build.
         m = Module()
-        fw = self._full_width
         a, b, en = self.a, self.b, self.en
-        re = Signal(signed(fw))
-        im = Signal(signed(fw))
+        half = 1 << (self._shift - 1)
+
+        def mul(name, x, y):
+            unit = RegisteredMultiplier(len(x), len(y), input_reg=True)
+            m.submodules[f"mul_{name}"] = unit
+            m.d.comb += [unit.en.eq(en), unit.a.eq(x), unit.b.eq(y)]
+            return unit.o
+
         if self._form == "4mult":
-            rr = Signal(signed(fw)); ii = Signal(signed(fw))
-            ri = Signal(signed(fw)); ir = Signal(signed(fw))
-            with m.If(en):
-                m.d.sync += [rr.eq(a.re * b.re), ii.eq(a.im * b.im),
-                             ri.eq(a.re * b.im), ir.eq(a.im * b.re)]
-                m.d.sync += [re.eq(rr - ii), im.eq(ri + ir)]
+            rr, ii = mul("rr", a.re, b.re), mul("ii", a.im, b.im)
+            ri, ir = mul("ri", a.re, b.im), mul("ir", a.im, b.re)
+            re, im = rr - ii, ri + ir
         else:
             s1 = Signal(signed(self._a_width + 1))   # a.re + a.im
             s2 = Signal(signed(self._b_width + 1))   # b.im - b.re
             s3 = Signal(signed(self._b_width + 1))   # b.re + b.im
             ar = Signal(signed(self._a_width)); ai = Signal(signed(self._a_width))
             br = Signal(signed(self._b_width))
-            k1 = Signal(signed(fw)); k2 = Signal(signed(fw)); k3 = Signal(signed(fw))
             with m.If(en):
                 m.d.sync += [s1.eq(a.re + a.im), s2.eq(b.im - b.re), s3.eq(b.re + b.im),
                              ar.eq(a.re), ai.eq(a.im), br.eq(b.re)]
-                m.d.sync += [k1.eq(br * s1), k2.eq(ar * s2), k3.eq(ai * s3)]
-                m.d.sync += [re.eq(k1 - k3), im.eq(k1 + k2)]
-        half = 1 << (self._shift - 1)
+            k1, k2, k3 = mul("k1", br, s1), mul("k2", ar, s2), mul("k3", ai, s3)
+            re, im = k1 - k3, k1 + k2
         with m.If(en):
             m.d.sync += [self.o.re.eq((re + half) >> self._shift),
                          self.o.im.eq((im + half) >> self._shift)]

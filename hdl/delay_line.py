@@ -2,8 +2,9 @@
 
 from amaranth.hdl import Module, Signal, unsigned
 from amaranth.lib import wiring
-from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
+
+from .ecp5_primitives import RegisteredRAM
 
 __all__ = ["DelayLine"]
 
@@ -63,20 +64,14 @@ class DelayLine(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.mem = mem = Memory(shape=unsigned(self._width), depth=self._depth, init=[])
-        wr = mem.write_port()
-        rd = mem.read_port(domain="sync")
+        # Block RAM with its output register (DP16KD OUTREG on ECP5): the
+        # read address is a register and the RAM output register is ``o``.
+        m.submodules.mem = mem = RegisteredRAM(self._width, self._depth)
         wp = Signal(range(self._depth))
         ra = Signal(range(self._depth))
         self.wp, self.ra = wp, ra           # for formal checks
-        m.d.comb += [wr.addr.eq(wp), wr.data.eq(self.i), wr.en.eq(self.en),
-                     rd.addr.eq(ra), rd.en.eq(self.en)]
-        # The RAM read register has no defined power-up value (X in Icarus):
-        # the first enabled sample keeps the output at its initial 0 instead of
-        # loading it (a clock enable, no data multiplexer).
-        primed = Signal()
+        m.d.comb += [mem.w_addr.eq(wp), mem.w_data.eq(self.i), mem.w_en.eq(self.en),
+                     mem.r_addr.eq(ra), mem.r_en.eq(self.en), self.o.eq(mem.r_data)]
         with m.If(self.en):
-            m.d.sync += [wp.eq(wp + 1), ra.eq(wp - self.delay), primed.eq(1)]
-            with m.If(primed):
-                m.d.sync += self.o.eq(rd.data)
+            m.d.sync += [wp.eq(wp + 1), ra.eq(wp - self.delay)]
         return m

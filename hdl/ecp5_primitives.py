@@ -49,13 +49,17 @@ def dp16kd_mode(width: int, depth: int):
 
 
 class RegisteredRAM(wiring.Component):
-    """Simple dual-port RAM, read latency 2, both read stages enabled by ``r_en``.
+    """Simple dual-port RAM, read latency 2 (3 with ``addr_reg``), every read
+    stage enabled by ``r_en``.
 
     In a cycle with ``r_en``, the word at ``r_addr`` is read into the read
     stage and the previous read stage moves to ``r_data`` (so ``r_data`` shows
-    the word addressed two enabled cycles before). The read stage has no
-    defined power-up value, so the first enabled cycle after power-up (or
-    reset) leaves ``r_data`` at 0 rather than loading it. ``r_data`` is reset
+    the word addressed two enabled cycles before). With ``addr_reg``,
+    ``r_addr`` first goes through a fabric register of its own (one more
+    enabled cycle): a register next to the block RAMs, so the logic making
+    the address is not pulled towards the RAMs it fans out to. The read stage
+    has no defined power-up value, so until it has been loaded (the first
+    enabled cycle, the first two with ``addr_reg``) ``r_data`` stays 0. ``r_data`` is reset
     with the domain. Writes (``w_en``) take effect at the clock edge; a read
     of the address being written returns the old word.
 
@@ -65,6 +69,8 @@ class RegisteredRAM(wiring.Component):
     init : sequence of int
         Power-up contents. On ECP5 a memory with initial contents is left to
         Yosys's inference (the primitive path has no INITVAL packing).
+    addr_reg : bool
+        Register the read address first (latency 3).
 
     Members
     -------
@@ -72,14 +78,15 @@ class RegisteredRAM(wiring.Component):
     r_en : In(1), r_addr : In(range(depth)), r_data : Out(width)
     """
 
-    latency = 2
-
-    def __init__(self, width, depth, init=()):
+    def __init__(self, width, depth, init=(), *, addr_reg=False):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"RAM width must be a positive integer, not {width!r}")
         if not isinstance(depth, int) or isinstance(depth, bool) or depth < 2:
             raise TypeError(f"RAM depth must be an integer of at least 2, not {depth!r}")
+        if not isinstance(addr_reg, bool):
+            raise TypeError(f"Address register must be a bool, not {addr_reg!r}")
         self._width, self._depth, self._init = width, depth, list(init)
+        self._addr_reg = addr_reg
         super().__init__({
             "w_en": In(1), "w_addr": In(range(depth)), "w_data": In(width),
             "r_en": In(1), "r_addr": In(range(depth)), "r_data": Out(width),
@@ -88,6 +95,25 @@ class RegisteredRAM(wiring.Component):
     @property
     def width(self):
         return self._width
+
+    @property
+    def latency(self):
+        return 3 if self._addr_reg else 2
+
+    def _read_front(self, m):
+        """The read address as the RAM sees it, and ``primed``: the read stage holds
+        a word read from memory (so ``r_data`` may load)."""
+        ra = self.r_addr
+        fill = Signal(range(self.latency))           # enabled cycles seen, saturating
+        primed = Signal()
+        m.d.comb += primed.eq(fill == self.latency - 1)
+        with m.If(self.r_en & ~primed):
+            m.d.sync += fill.eq(fill + 1)
+        if self._addr_reg:
+            ra = Signal.like(self.r_addr, name="r_addr_q")
+            with m.If(self.r_en):
+                m.d.sync += ra.eq(self.r_addr)
+        return ra, primed
 
     @property
     def depth(self):
@@ -103,29 +129,25 @@ class RegisteredRAM(wiring.Component):
         if is_ecp5(platform) and mode is not None and not self._init:
             return self._elaborate_ecp5(*mode)
         m = Module()
-        m.submodules.mem = mem = Memory(shape=unsigned(self._width), depth=self._depth,
+        m.submodules.storage = mem = Memory(shape=unsigned(self._width), depth=self._depth,
                                         init=self._init)
         wr = mem.write_port()
         rd = mem.read_port(domain="sync")
+        r_addr, primed = self._read_front(m)
         m.d.comb += [wr.en.eq(self.w_en), wr.addr.eq(self.w_addr), wr.data.eq(self.w_data),
-                     rd.en.eq(self.r_en), rd.addr.eq(self.r_addr)]
-        primed = Signal()
-        with m.If(self.r_en):
-            m.d.sync += primed.eq(1)
-            with m.If(primed):
-                m.d.sync += self.r_data.eq(rd.data)
+                     rd.en.eq(self.r_en), rd.addr.eq(r_addr)]
+        with m.If(self.r_en & primed):
+            m.d.sync += self.r_data.eq(rd.data)
         return m
 
     def _elaborate_ecp5(self, w, slices):
         m = Module()
-        primed = Signal()
-        with m.If(self.r_en):
-            m.d.sync += primed.eq(1)
+        r_addr, primed = self._read_front(m)
         s = _ADDR_SHIFT[w]
         aw = 14 - s
         wa = Signal(14)
         ra = Signal(14)
-        m.d.comb += [wa.eq(self.w_addr << s), ra.eq(self.r_addr << s)]
+        m.d.comb += [wa.eq(self.w_addr << s), ra.eq(r_addr << s)]
         if w == 18:                              # ADA[1:0] are the byte write enables
             m.d.comb += wa[:2].eq(0b11)
         padded_w = Signal(slices * w)

@@ -9,6 +9,7 @@ from .cmult import ComplexMultiplier
 from .delay_line import DelayLine
 from .stream_replay import StreamReplay
 from .registers import BusSignature, RegisterFile
+from .ecp5_primitives import RegisteredMultiplier
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, STREAM_WIDTH, OUTPUT_WIDTH,
                                 PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, SEGMENT_LATENCY)
 from ..model.regmap import register_map, ChannelInit
@@ -128,11 +129,14 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += geff.eq(Mux(regs.enable[l], regs.gain[l], 0))
             q = []
             for part in ("re", "im"):
-                prod = Signal(signed(cm.o_width + geff.shape().width + 1), name=f"gprod{l}_{part}")
+                # The gain (unsigned) enters the signed multiplier with a zero sign bit.
+                mul = RegisteredMultiplier(cm.o_width, geff.shape().width + 1)
+                m.submodules[f"gmul{l}_{part}"] = mul
+                m.d.comb += [mul.en.eq(ce), mul.a.eq(getattr(cm.o, part)), mul.b.eq(geff)]
+                prod = mul.o
                 qv = Signal(signed(SCALED_WIDTH), name=f"q{l}_{part}")
                 with m.If(ce):
-                    m.d.sync += [prod.eq(getattr(cm.o, part) * geff),
-                                 qv.eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)]
+                    m.d.sync += qv.eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
                 q.append(qv)
 
             # Systolic adder chain: SEGMENT_LATENCY registers per link equalise

@@ -6,6 +6,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
+from .ecp5_primitives import RegisteredRAM
 from ..model.fixedpoint import STREAM_WIDTH, PHASE_FRAC_BITS, INTERP_FRAC_BITS, stream_latency
 
 __all__ = ["StreamReplay"]
@@ -103,82 +104,93 @@ class StreamReplay(wiring.Component):
 
     @property
     def latency(self):
-        """Samples from the phase register to ``o``: 2, or 5 with interpolation."""
+        """Samples from the phase register to ``o``: 3, or 6 with interpolation."""
         return stream_latency(self._interpolate)
 
     def elaborate(self, platform):
         m = Module()
         D, F = self._depth, PHASE_FRAC_BITS
         en = self.en
-        m.submodules.mem = mem = Memory(shape=unsigned(2 * STREAM_WIDTH), depth=2 * D,
-                                        init=self._init)
-        wr = mem.write_port()
-        m.d.comb += [wr.addr.eq(Cat(self.wr_addr, self.wr_bank)), wr.data.eq(self.wr_data),
-                     wr.en.eq(self.wr_en)]
+        # Both banks in one RAM whose read data passes the block RAM's output
+        # register (DP16KD OUTREG on ECP5); with interpolation a second copy
+        # serves the second read port (both copies see every write).
+        # The read address passes a register of its own next to the block RAMs
+        # (``addr_reg``: one more sample of stream latency), so the phase logic
+        # is not pulled towards the sixteen block RAMs it addresses (timing).
+        rams = [RegisteredRAM(2 * STREAM_WIDTH, 2 * D, init=self._init, addr_reg=True)
+                for _ in range(2 if self._interpolate else 1)]
+        for k, ram in enumerate(rams):
+            m.submodules[f"mem{k}" if k else "mem"] = ram
+            m.d.comb += [ram.w_addr.eq(Cat(self.wr_addr, self.wr_bank)), ram.w_data.eq(self.wr_data),
+                         ram.w_en.eq(self.wr_en)]
 
         idx = self.index
-        length = self.active_length
+        # The active length is kept as ``length - 1`` (``len_m1``), so the wrap
+        # test is an equality of two registers; ``active_length`` is derived.
+        len_m1 = Signal(range(D), init=self._init_length - 1)
+        m.d.comb += self.active_length.eq(len_m1 + 1)
         bank, pending = self.bank, self.pending
         frac = Signal(F)
         inc = Signal(F, init=self._init_increment)
 
-        idx_n = Signal.like(idx); frac_n = Signal.like(frac); len_n = Signal.like(length)
+        idx_n = Signal.like(idx); frac_n = Signal.like(frac); len_n = Signal.like(len_m1)
         inc_n = Signal.like(inc); bank_n = Signal(); pend_n = Signal()
-        acc = Signal(F + 1)
+        # ``acc`` is a register holding ``frac + inc`` (its successor computed
+        # from registers), so the carry that decides a step or a wrap comes
+        # straight from a flip-flop rather than from the end of a carry chain.
+        acc = Signal(F + 1, init=self._init_increment)
+        acc_n = Signal(F + 1)
+        step = Signal(F + 1)
         carry = acc[F]
         wrap = Signal()
         wrap_swap = Signal()
-        m.d.comb += [acc.eq(frac + inc), wrap.eq(carry & (idx == length - 1)),
+        # (Timing: the compare against ``length - 1`` behind the carry chain
+        # of ``frac + inc`` limited the block to 87 MHz.)
+        m.d.comb += [acc_n.eq(acc), step.eq(acc[:F] + inc)]
+        m.d.comb += [wrap.eq(carry & (idx == len_m1)),
                      wrap_swap.eq(en & pending & wrap),
-                     idx_n.eq(idx), frac_n.eq(frac), len_n.eq(length), inc_n.eq(inc),
+                     idx_n.eq(idx), frac_n.eq(frac), len_n.eq(len_m1), inc_n.eq(inc),
                      bank_n.eq(bank), pend_n.eq(pending),
                      self.pending_next.eq(pending & ~wrap_swap),
                      self.bank_next.eq(bank ^ wrap_swap)]
 
         def switch(new_bank):
-            return [bank_n.eq(new_bank), len_n.eq(self.length), inc_n.eq(self.increment),
-                    idx_n.eq(0), frac_n.eq(0), pend_n.eq(0)]
+            return [bank_n.eq(new_bank), len_n.eq(self.length - 1), inc_n.eq(self.increment),
+                    idx_n.eq(0), frac_n.eq(0), pend_n.eq(0), acc_n.eq(self.increment)]
 
         with m.If(en):
             with m.If(wrap_swap):
                 m.d.comb += switch(~bank)
             with m.Elif(wrap):
-                m.d.comb += [idx_n.eq(0), frac_n.eq(acc[:F])]
+                m.d.comb += [idx_n.eq(0), frac_n.eq(acc[:F]), acc_n.eq(step)]
             with m.Else():
-                m.d.comb += [idx_n.eq(idx + carry), frac_n.eq(acc[:F])]
+                m.d.comb += [idx_n.eq(idx + carry), frac_n.eq(acc[:F]), acc_n.eq(step)]
         with m.If(self.swap_force):
             m.d.comb += switch(~self.bank_next)
         with m.Elif(self.swap_req):
             m.d.comb += pend_n.eq(1)
-        m.d.sync += [idx.eq(idx_n), frac.eq(frac_n), length.eq(len_n), inc.eq(inc_n),
-                     bank.eq(bank_n), pending.eq(pend_n)]
+        m.d.sync += [idx.eq(idx_n), frac.eq(frac_n), len_m1.eq(len_n), inc.eq(inc_n),
+                     bank.eq(bank_n), pending.eq(pend_n), acc.eq(acc_n)]
 
-        rd0 = mem.read_port(domain="sync")
         w0 = Signal(IQ(STREAM_WIDTH))
-        m.d.comb += [rd0.addr.eq(Cat(idx, bank)), rd0.en.eq(en)]
-        # The RAM read registers have no defined power-up value (X in Icarus):
-        # the first enabled sample keeps the word registers at their initial 0.
-        primed = Signal()
-        with m.If(en):
-            m.d.sync += primed.eq(1)
-            with m.If(primed):
-                m.d.sync += w0.eq(rd0.data)
+        m.d.comb += [rams[0].r_addr.eq(Cat(idx, bank)), rams[0].r_en.eq(en), w0.eq(rams[0].r_data)]
         if not self._interpolate:
             m.d.comb += self.o.eq(w0)
             return m
 
         # Interpolation: a second read port at idx + 1 (mod length), itself a register.
         idx1 = Signal(range(D))
-        m.d.sync += idx1.eq(Mux(idx_n + 1 == len_n, 0, idx_n + 1))
-        rd1 = mem.read_port(domain="sync")
+        m.d.sync += idx1.eq(Mux(idx_n == len_n, 0, idx_n + 1))
         w1 = Signal(IQ(STREAM_WIDTH))
-        m.d.comb += [rd1.addr.eq(Cat(idx1, bank)), rd1.en.eq(en)]
-        fd1 = Signal(INTERP_FRAC_BITS); fd2 = Signal(INTERP_FRAC_BITS); fa = Signal(INTERP_FRAC_BITS)
+        m.d.comb += [rams[1].r_addr.eq(Cat(idx1, bank)), rams[1].r_en.eq(en), w1.eq(rams[1].r_data)]
+        # The fraction follows the words through the RAM's stages (one per
+        # RAM latency sample), then meets the difference of the words.
+        fds = [Signal(INTERP_FRAC_BITS, name=f"fd{k}") for k in range(rams[0].latency + 1)]
+        fa = fds[-1]
         W = STREAM_WIDTH
         with m.If(en):
-            m.d.sync += [fd1.eq(frac[F - INTERP_FRAC_BITS:]), fd2.eq(fd1), fa.eq(fd2)]
-            with m.If(primed):
-                m.d.sync += w1.eq(rd1.data)
+            m.d.sync += [fds[0].eq(frac[F - INTERP_FRAC_BITS:])]
+            m.d.sync += [fds[k].eq(fds[k - 1]) for k in range(1, len(fds))]
         out = Signal(IQ(W))
         for part in ("re", "im"):
             diff = Signal(signed(W + 1), name=f"diff_{part}")

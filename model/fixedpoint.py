@@ -147,8 +147,10 @@ def cmult_latency(form: str) -> int:
 
 
 def stream_latency(interpolate: bool) -> int:
-    """Samples from the phase register to the stream word at the multiplier."""
-    return 5 if interpolate else 2
+    """Samples from the phase register to the stream word at the multiplier:
+    read address register, block RAM read, block RAM output register (plus
+    three interpolation stages)."""
+    return 6 if interpolate else 3
 
 
 @dataclass(frozen=True)

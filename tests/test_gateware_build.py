@@ -57,7 +57,7 @@ def test_elaborates_for_ecp5(tmp_path, board, device):
     assert il.count("cell \\IDDRX1F") == 16 and il.count("cell \\ODDRX1F") == 16 + 3
     assert "cell \\EHXPLLL" in il
     assert il.count("cell \\MULT18X18D") == 2 * 6          # 4 complex + 2 gain per channel
-    assert 'LOCATE COMP "rts_adc_0__data[0]" SITE "B11"' in lpf
+    assert 'LOCATE COMP "rts_adc_0__data__io[0]" SITE "B11"' in lpf
     assert rep["pll"]["f_out_mhz"] == 100.0
     assert rep["memory"]["stream_words_per_bank"] == 256
 

@@ -36,17 +36,21 @@ def test_mode_choice():
     assert is_ecp5(FakeECP5()) and not is_ecp5(None)
 
 
-def test_ram_model():
-    """Behavioural RAM: latency 2 under r_en, old data on a same-address write."""
+@pytest.mark.parametrize("addr_reg", [False, True])
+def test_ram_model(addr_reg):
+    """Behavioural RAM: latency 2 (3) under r_en, old data on a same-address write,
+    r_data 0 until the read stage has been loaded."""
     W, D = 12, 32
-    dut = RegisteredRAM(W, D)
+    dut = RegisteredRAM(W, D, addr_reg=addr_reg)
+    assert dut.latency == (3 if addr_reg else 2)
+    areg = None
     rng = random.Random(3)
     mem = [0] * D
     stage, out, primed = 0, 0, False
     log = []
 
     async def bench(ctx):
-        nonlocal stage, out, primed
+        nonlocal stage, out, primed, areg
         for cyc in range(600):
             we, re_ = rng.random() < 0.5, rng.random() < 0.7
             wa, ra, wd = rng.randrange(D), rng.randrange(D), rng.randrange(1 << W)
@@ -56,9 +60,14 @@ def test_ram_model():
             ctx.set(dut.r_en, re_); ctx.set(dut.r_addr, ra)
             await ctx.tick()
             if re_:
-                if primed:                  # the first enabled read leaves r_data at 0
+                if primed:                  # r_data stays 0 until the read stage is loaded
                     out = stage
-                stage, primed = mem[ra], True
+                if addr_reg:
+                    if areg is not None:
+                        stage, primed = mem[areg], True
+                    areg = ra
+                else:
+                    stage, primed = mem[ra], True
             if we:
                 mem[wa] = wd
             got = ctx.get(dut.r_data)
