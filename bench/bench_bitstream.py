@@ -41,11 +41,34 @@ def row(label, what, rep):
             f"{'':<10} {what}")
 
 
+def seed_capacity():
+    """Turbines of the seed's section 4.3 scenarios one LFE5U-85F holds at once
+    (stream rate 4 x max Doppler, C band), from the block RAM budget."""
+    from rast.gateware.capacity import max_channels
+    from rast.model.config import load_config
+    from rast.model.stream import build_farm_streams
+    examples = Path(__file__).resolve().parent.parent / "examples"
+    print("\nturbines per LFE5U-85F (two 32-bit banks per stream, 4x max Doppler):")
+    for name in ("sec4_3_3_three_blades", "sec4_3_3_realistic", "sec4_3_4_four_windmills"):
+        farm = load_config(examples / f"{name}.toml")
+        for s in build_farm_streams(farm).streams:
+            words = s.plan.length
+            depth = 1 << (words - 1).bit_length()
+            n, lim = max_channels(stream_depth=max(depth, 2))
+            print(f"  {name:<24} {s.windmill.name:<5} {s.windmill.rpm:>3g} rpm "
+                  f"{s.windmill.num_blades} blade(s) {s.plan.max_doppler_hz:>6.0f} Hz "
+                  f"{words:>6} words -> depth {depth:>5}: {n:>2} per device ({lim})")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reuse", action="store_true", help="print reports already built")
     ap.add_argument("--only", action="append", choices=sorted(LADDER), help="build only these rungs")
+    ap.add_argument("--capacity", action="store_true", help="only print the turbines-per-device table")
     args = ap.parse_args()
+    if args.capacity:
+        seed_capacity()
+        return
     print(f"{'label':<10} {'N':>3} {'depth':>6} {'asked':>6} {'fmax':>7} {'met':>4} {'LUTs':>6} "
           f"{'FFs':>6} {'DSPs':>8} {'BRAMs':>8}  critical path")
     for label, (what, kw) in LADDER.items():
@@ -58,6 +81,7 @@ def main():
             build(BuildConfig(**kw), out, quiet=True)
             what += f" (built in {time.monotonic() - t0:.0f} s)"
         print(row(label, what, json.loads(rp.read_text())), flush=True)
+    seed_capacity()
 
 
 if __name__ == "__main__":
