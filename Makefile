@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 EXAMPLE ?= examples/two_windmills.toml
 OUT ?= out/two_windmills
 
-.PHONY: run test venv bench clean
+.PHONY: run test venv bench bench-cosim clean
 
 venv: $(STAMP)
 
@@ -26,6 +26,9 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_streams.py
+
+bench-cosim: $(STAMP)
+	$(BIN)/python bench/bench_cosim.py
 
 clean:
 	rm -rf out build sim_build
