@@ -21,7 +21,10 @@ LADDER = {
     "n8_100": ("default: 8 channels at 100 MHz", dict(channels=8, clock_mhz=100)),
     "n8_150": ("8 channels asked for 150 MHz: how fast does it go", dict(channels=8, clock_mhz=150)),
     "n8_200": ("8 channels asked for 200 MHz", dict(channels=8, clock_mhz=200)),
-    "n11_100": ("largest N with 4096-word streams (block RAM bound)", dict(channels=11, clock_mhz=100)),
+    "n9_100": ("9 channels at 100 MHz", dict(channels=9, clock_mhz=100)),
+    "n10_100": ("10 channels at 100 MHz", dict(channels=10, clock_mhz=100)),
+    "n11_100": ("most channels that fit with 4096-word streams (block RAM bound)",
+                dict(channels=11, clock_mhz=100)),
     "n5_8k_100": ("seed 4.3.3 turbines: 8192-word streams (<= 7775 words at 4x Doppler)",
                   dict(channels=5, clock_mhz=100, stream_depth=8192)),
 }
