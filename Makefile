@@ -5,9 +5,10 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 EXAMPLE ?= examples/two_windmills.toml
+BITSTREAM_OUT ?= build/bitstream
 OUT ?= out/two_windmills
 
-.PHONY: run test venv bench bench-cosim clean
+.PHONY: run test venv bench bench-cosim bench-bitstream bitstream clean
 
 venv: $(STAMP)
 
@@ -29,6 +30,13 @@ bench: $(STAMP)
 
 bench-cosim: $(STAMP)
 	$(BIN)/python bench/bench_cosim.py
+
+bench-bitstream: $(STAMP)
+	$(BIN)/python bench/bench_bitstream.py $(BENCH_ARGS)
+
+# ULX3S-85F, 8 channels, 100 MHz by default; BUILD_ARGS="--channels 5 ..." for others.
+bitstream: $(STAMP)
+	$(BIN)/rast build --out $(BITSTREAM_OUT) $(BUILD_ARGS)
 
 clean:
 	rm -rf out build sim_build

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import tempfile
 from pathlib import Path
@@ -90,7 +91,9 @@ def build_parser() -> argparse.ArgumentParser:
             module = __import__(f"rast.{module_name}", fromlist=["add_arguments", "run"])
         except ImportError:
             continue
-        p = sub.add_parser(module_name, help=(module.__doc__ or "").strip().splitlines()[0])
+        summary = (module.__doc__ or "").strip().splitlines()[0]
+        summary = re.sub(r"^``rast \w+``:\s*", "", summary).rstrip(".")
+        p = sub.add_parser(module_name, help=summary)
         module.add_arguments(p)
         p.set_defaults(func=module.run)
     return parser
