@@ -23,7 +23,7 @@ Hence an echo of channel l appears ``L + sum(d_0..d_l)`` samples after the input
 
 import numpy as np
 
-from .fixedpoint import (ReplayContract, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
+from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
                          INTERP_FRAC_BITS, PHASE_FRAC_BITS, SEGMENT_LATENCY, GAIN_LATENCY,
                          STREAM_WIDTH, round_half_up, saturate, pack_iq, unpack_iq)
 from .regmap import (register_map, ChannelInit, ID_VALUE, CTRL_ENABLE, CTRL_SWAP)
@@ -117,7 +117,7 @@ class ReplayModel:
         self.inc_next = [i.phase_increment & (ONE - 1) for i in inits]
         self.len_act = list(self.len_next)
         self.inc_act = list(self.inc_next)
-        self.gain = [i.gain & ((1 << 17) - 1) for i in inits]
+        self.gain = [i.gain & GAIN.max for i in inits]
         self.delay_next = [min(i.delay, c.max_segment_delay(l)) for l, i in enumerate(inits)]
         self.delay_act = list(self.delay_next)
         self.bank = [0] * N
