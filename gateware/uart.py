@@ -23,6 +23,10 @@ def divisor(clk_hz: float, baud: int) -> int:
     return d
 
 
+def _check_divisor(divisor):
+    if not isinstance(divisor, int) or isinstance(divisor, bool) or divisor < 4:
+        raise ValueError(f"UART divisor must be an integer of at least 4, not {divisor!r}")
+
 class UARTRx(wiring.Component):
     """Receiver: ``data`` is valid for the one cycle ``stb`` is high.
 
@@ -45,8 +49,7 @@ class UARTRx(wiring.Component):
     err: Out(1)
 
     def __init__(self, divisor):
-        if not isinstance(divisor, int) or isinstance(divisor, bool) or divisor < 4:
-            raise ValueError(f"UART divisor must be an integer of at least 4, not {divisor!r}")
+        _check_divisor(divisor)
         self._divisor = divisor
         super().__init__()
 
@@ -110,8 +113,7 @@ class UARTTx(wiring.Component):
     tx: Out(1, init=1)
 
     def __init__(self, divisor):
-        if not isinstance(divisor, int) or isinstance(divisor, bool) or divisor < 4:
-            raise ValueError(f"UART divisor must be an integer of at least 4, not {divisor!r}")
+        _check_divisor(divisor)
         self._divisor = divisor
         super().__init__()
 

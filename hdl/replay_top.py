@@ -11,7 +11,8 @@ from .stream_replay import StreamReplay
 from .registers import BusSignature, RegisterFile
 from .ecp5_primitives import RegisteredMultiplier
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, STREAM_WIDTH, OUTPUT_WIDTH,
-                                PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, SEGMENT_LATENCY)
+                                PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, SEGMENT_LATENCY,
+                                PHASE_FRAC_BITS)
 from ..model.regmap import register_map, ChannelInit
 
 __all__ = ["WindFarmReplay"]
@@ -108,7 +109,7 @@ class WindFarmReplay(wiring.Component):
             seg = DelayLine(2 * INPUT_WIDTH, c.max_segment_delay(l))
             sr = StreamReplay(c.stream_depth, interpolate=c.interpolate,
                               init=self._init[l].words, init_length=self._init[l].length,
-                              init_increment=self._init[l].phase_increment & 0xFFFFFFFF)
+                              init_increment=self._init[l].phase_increment & ((1 << PHASE_FRAC_BITS) - 1))
             cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
             m.submodules[f"seg{l}"] = seg
             m.submodules[f"stream{l}"] = sr

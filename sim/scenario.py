@@ -107,13 +107,17 @@ def _random_words(rng, n, full_scale=False):
 
 #: Gains with many trailing zero bits: p * g then lands exactly on rounding ties
 #: (low 16 bits 0x8000) for odd p, so the gain stage's round-half-up is exercised.
-TIE_GAINS = (1 << 15, 3 << 14, (1 << 16) + (1 << 15), 5 << 13, 1 << 16)
+_UNITY = 1 << fx.GAIN_FRAC
+TIE_GAINS = (_UNITY // 2, 3 * _UNITY // 4, _UNITY + _UNITY // 2, 5 * _UNITY // 8, _UNITY)
 
 
 def _random_gain(rng):
     if rng.random() < 0.4:
         return int(rng.choice(TIE_GAINS))
-    return int(rng.integers(0, 1 << 17))
+    return int(rng.integers(0, fx.GAIN.max + 1))
+
+
+_ONE_WORD = 1 << fx.PHASE_FRAC_BITS
 
 
 def _random_inc(rng):
@@ -121,8 +125,8 @@ def _random_inc(rng):
     if kind == 0:
         return int(rng.integers(1, 1 << 20))                  # very slow
     if kind == 1:
-        return (1 << 32) - 1                                  # one word per sample (seed mode)
-    return int(rng.integers(1 << 24, 1 << 32))
+        return _ONE_WORD - 1                                  # one word per sample (seed mode)
+    return int(rng.integers(1 << 24, _ONE_WORD))
 
 
 #: One contract for every random top test, so a channel count is one build.
@@ -149,7 +153,7 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
     regs = []
     for ch in range(channels):
         length = int(rng.integers(1, 160))
-        gain = int(rng.integers((1 << 17) - 4096, 1 << 17)) if full else _random_gain(rng)
+        gain = int(rng.integers(fx.GAIN.max + 1 - 4096, fx.GAIN.max + 1)) if full else _random_gain(rng)
         regs += [(0, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full), length,
                                                _random_inc(rng), enable=full or rng.random() < 0.85,
                                                force=True)]
