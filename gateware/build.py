@@ -49,7 +49,7 @@ class BuildConfig:
     stream_depth: int = 4096
     max_delay: int = 4094
     max_increment: int = 1022
-    interpolate: bool = False
+    interpolation: str = "fir"
     cmult_form: str = "4mult"
     seed: int = 1
     extra_nextpnr: list = field(default_factory=list)
@@ -57,12 +57,12 @@ class BuildConfig:
     def contract(self) -> ReplayContract:
         return ReplayContract(channels=self.channels, stream_depth=self.stream_depth,
                               max_delay=self.max_delay, max_increment=self.max_increment,
-                              interpolate=self.interpolate, cmult_form=self.cmult_form)
+                              interpolation=self.interpolation, cmult_form=self.cmult_form)
 
     def replay_kwargs(self):
         return dict(channels=self.channels, stream_depth=self.stream_depth,
                     max_delay=self.max_delay, max_increment=self.max_increment,
-                    interpolate=self.interpolate, cmult_form=self.cmult_form)
+                    interpolation=self.interpolation, cmult_form=self.cmult_form)
 
 
 def tool_env(env=None):
@@ -192,7 +192,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
                    "speed": str(platform.speed)},
         "config": {"channels": cfg.channels, "clock_mhz": cfg.clock_mhz, "baud": cfg.baud,
                    "stream_depth": cfg.stream_depth, "max_delay": cfg.max_delay,
-                   "max_increment": cfg.max_increment, "interpolate": cfg.interpolate,
+                   "max_increment": cfg.max_increment, "interpolation": cfg.interpolation,
                    "cmult_form": cfg.cmult_form, "seed": cfg.seed},
         "pll": {"f_in_mhz": top.pll.f_in_mhz, "f_out_mhz": top.pll.f_out_mhz,
                 "refclk_div": top.pll.refclk_div, "feedback_div": top.pll.feedback_div,

@@ -30,7 +30,7 @@ class WindFarmReplay(wiring.Component):
     ----------
     channels : int
         N, 1 to 64.
-    stream_depth, max_delay, max_increment, interpolate, cmult_form :
+    stream_depth, max_delay, max_increment, interpolation, cmult_form :
         See :class:`rast.model.fixedpoint.ReplayContract`.
     init : list of ChannelInit, optional
         Power-up streams (bank 0) and register values.
@@ -46,10 +46,10 @@ class WindFarmReplay(wiring.Component):
     """
 
     def __init__(self, channels=4, *, stream_depth=4096, max_delay=4094, max_increment=1022,
-                 interpolate=False, cmult_form="4mult", init=None):
+                 interpolation="fir", cmult_form="4mult", init=None):
         self._contract = ReplayContract(channels=channels, stream_depth=stream_depth,
                                         max_delay=max_delay, max_increment=max_increment,
-                                        interpolate=interpolate, cmult_form=cmult_form)
+                                        interpolation=interpolation, cmult_form=cmult_form)
         init = list(init or [])
         if len(init) > channels:
             raise ValueError(f"Initial contents must be given for at most {channels} channels, "
@@ -107,9 +107,11 @@ class WindFarmReplay(wiring.Component):
         chain = None
         for l in range(N):
             seg = DelayLine(2 * INPUT_WIDTH, c.max_segment_delay(l))
-            sr = StreamReplay(c.stream_depth, interpolate=c.interpolate,
-                              init=self._init[l].words, init_length=self._init[l].length,
-                              init_increment=self._init[l].phase_increment & ((1 << PHASE_FRAC_BITS) - 1))
+            # Power-up LENGTH and PHASE_INC as the register map clamps them.
+            sr = StreamReplay(c.stream_depth, interpolation=c.interpolation,
+                              init=self._init[l].words,
+                              init_length=self._rmap.reg("LENGTH", l).field("length").reset,
+                              init_increment=self._rmap.reg("PHASE_INC", l).field("inc").reset)
             cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
             m.submodules[f"seg{l}"] = seg
             m.submodules[f"stream{l}"] = sr

@@ -7,7 +7,11 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .ecp5_primitives import RegisteredRAM
-from ..model.fixedpoint import STREAM_WIDTH, PHASE_FRAC_BITS, INTERP_FRAC_BITS, stream_latency
+from .ecp5_primitives import RegisteredMultiplier
+from ..model.fixedpoint import (STREAM_WIDTH, PHASE_FRAC_BITS, INTERP_FRAC_BITS, INTERPOLATIONS,
+                                FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH, FIR_COEF_FRAC,
+                                FIR_ACC_WIDTH, fir_coefficients, stream_latency, refill_samples,
+                                max_phase_increment, min_stream_length)
 
 __all__ = ["StreamReplay"]
 
@@ -18,10 +22,18 @@ class StreamReplay(wiring.Component):
     The phase ``idx + frac/2**32`` (words) advances by ``increment/2**32``
     per enabled sample (``increment < 2**32``: at most one word per sample)
     and wraps exactly at the active length: when ``frac + inc`` carries
-    and ``idx == length - 1`` the index returns to 0. The word at ``idx``
-    (linearly interpolated towards ``idx + 1`` with the top 16 fraction
-    bits when ``interpolate``) is presented ``latency`` samples later on
-    ``o`` and held between steps.
+    and ``idx == length - 1`` the index returns to 0. The stream word for
+    the phase (``interpolation``: ``"hold"`` the word at ``idx``;
+    ``"linear"`` interpolated towards ``idx + 1`` with the top 16 fraction
+    bits; ``"fir"`` the two-stage interpolator of
+    :mod:`rast.model.fixedpoint`) is presented ``latency`` samples later on
+    ``o``.
+
+    FIR: a serial multiplier-accumulator computes the intermediate values
+    U[J] (one tap per sample) into three registers holding U[J], U[J+1]
+    and U[J+2]; when J advances they shift and the MAC starts on U[J+3].
+    After reset and after every bank switch the phase is held at 0 and
+    ``o`` is 0 for ``refill_samples`` samples while U[0..2] are computed.
 
     Bank switch: ``swap_req`` marks a switch pending; it happens in the
     sample at which the active stream wraps (the period boundary).
@@ -32,7 +44,8 @@ class StreamReplay(wiring.Component):
     ----------
     depth : int
         Words per bank (power of two).
-    interpolate : bool
+    interpolation : str
+        ``"hold"``, ``"linear"`` or ``"fir"``.
     init : sequence of int
         Packed words of bank 0 at power-up.
     init_length, init_increment : int
@@ -54,23 +67,30 @@ class StreamReplay(wiring.Component):
         The read index and the active length (``index < active_length``).
     """
 
-    def __init__(self, depth, *, interpolate=False, init=(), init_length=None, init_increment=0):
+    def __init__(self, depth, *, interpolation="fir", init=(), init_length=None, init_increment=0):
         if not isinstance(depth, int) or isinstance(depth, bool) or depth < 2 or depth & (depth - 1):
             raise ValueError(f"Stream depth must be a power of two of at least 2, not {depth!r}")
-        if not isinstance(interpolate, bool):
-            raise TypeError(f"Interpolate must be a bool, not {interpolate!r}")
+        if interpolation not in INTERPOLATIONS:
+            raise ValueError(f"Interpolation must be one of {', '.join(INTERPOLATIONS)}, "
+                             f"not {interpolation!r}")
+        min_length = min_stream_length(interpolation)
+        if depth < min_length:
+            raise ValueError(f"Stream depth must be at least {min_length} with {interpolation} "
+                             f"interpolation, not {depth!r}")
         init = [int(w) & ((1 << 2 * STREAM_WIDTH) - 1) for w in init]
         if len(init) > depth:
             raise ValueError(f"Initial stream must have at most {depth} words, not {len(init)}")
         if init_length is None:
-            init_length = max(1, len(init))
-        if not isinstance(init_length, int) or not 1 <= init_length <= depth:
-            raise ValueError(f"Initial length must be an integer in [1, {depth}], not {init_length!r}")
-        if not isinstance(init_increment, int) or not 0 <= init_increment < (1 << PHASE_FRAC_BITS):
-            raise ValueError(f"Initial increment must be an integer in [0, 2**{PHASE_FRAC_BITS}), "
+            init_length = max(min_length, len(init))
+        if not isinstance(init_length, int) or not min_length <= init_length <= depth:
+            raise ValueError(f"Initial length must be an integer in [{min_length}, {depth}], "
+                             f"not {init_length!r}")
+        max_inc = max_phase_increment(interpolation)
+        if not isinstance(init_increment, int) or not 0 <= init_increment <= max_inc:
+            raise ValueError(f"Initial increment must be an integer in [0, {max_inc}], "
                              f"not {init_increment!r}")
         self._depth = depth
-        self._interpolate = interpolate
+        self._interpolation = interpolation
         self._init = init
         self._init_length = init_length
         self._init_increment = init_increment
@@ -99,13 +119,17 @@ class StreamReplay(wiring.Component):
         return self._depth
 
     @property
-    def interpolate(self):
-        return self._interpolate
+    def interpolation(self):
+        return self._interpolation
 
     @property
     def latency(self):
-        """Samples from the phase register to ``o``: 3, or 6 with interpolation."""
-        return stream_latency(self._interpolate)
+        """Samples from the phase register to ``o`` (``stream_latency``)."""
+        return stream_latency(self._interpolation)
+
+    @property
+    def refill_samples(self):
+        return refill_samples(self._interpolation)
 
     def elaborate(self, platform):
         m = Module()
@@ -118,12 +142,20 @@ class StreamReplay(wiring.Component):
         # (``addr_reg``: one more sample of stream latency), so the phase logic
         # is not pulled towards the sixteen block RAMs it addresses (timing).
         rams = [RegisteredRAM(2 * STREAM_WIDTH, 2 * D, init=self._init, addr_reg=True)
-                for _ in range(2 if self._interpolate else 1)]
+                for _ in range(2 if self._interpolation == "linear" else 1)]
         for k, ram in enumerate(rams):
             m.submodules[f"mem{k}" if k else "mem"] = ram
             m.d.comb += [ram.w_addr.eq(Cat(self.wr_addr, self.wr_bank)), ram.w_data.eq(self.wr_data),
                          ram.w_en.eq(self.wr_en)]
 
+        fir = self._interpolation == "fir"
+        refill = Signal(range(self.refill_samples + 1), init=self.refill_samples)
+        refilling = Signal()
+        m.d.comb += refilling.eq(refill != 0)
+        if fir:
+            # The phase is held while the FIR's registers are refilled.
+            en = Signal()
+            m.d.comb += en.eq(self.en & ~refilling)
         idx = self.index
         # The active length is kept as ``length - 1`` (``len_m1``), so the wrap
         # test is an equality of two registers; ``active_length`` is derived.
@@ -154,11 +186,19 @@ class StreamReplay(wiring.Component):
                      self.pending_next.eq(pending & ~wrap_swap),
                      self.bank_next.eq(bank ^ wrap_swap)]
 
+        # A switch restarts the phase at 0 (and, with FIR, starts a refill).
+        swapping = Signal()
+        # J (the FIR's intermediate index, whole words and top fraction bits) advances.
+        j_step = Signal()
+        PB = FIR_PHASE_BITS
+
         def switch(new_bank):
             return [bank_n.eq(new_bank), len_n.eq(self.length - 1), inc_n.eq(self.increment),
-                    idx_n.eq(0), frac_n.eq(0), pend_n.eq(0), acc_n.eq(self.increment)]
+                    idx_n.eq(0), frac_n.eq(0), pend_n.eq(0), acc_n.eq(self.increment),
+                    swapping.eq(1), j_step.eq(0)]
 
         with m.If(en):
+            m.d.comb += j_step.eq(acc[F - PB:] != frac[F - PB:])
             with m.If(wrap_swap):
                 m.d.comb += switch(~bank)
             with m.Elif(wrap):
@@ -172,9 +212,17 @@ class StreamReplay(wiring.Component):
         m.d.sync += [idx.eq(idx_n), frac.eq(frac_n), len_m1.eq(len_n), inc.eq(inc_n),
                      bank.eq(bank_n), pending.eq(pend_n), acc.eq(acc_n)]
 
+        if fir:
+            with m.If(swapping):
+                m.d.sync += refill.eq(self.refill_samples)
+            with m.Elif(self.en & refilling):
+                m.d.sync += refill.eq(refill - 1)
+            self._elaborate_fir(m, rams[0], bank, len_m1, frac, swapping, j_step, refilling)
+            return m
+
         w0 = Signal(IQ(STREAM_WIDTH))
         m.d.comb += [rams[0].r_addr.eq(Cat(idx, bank)), rams[0].r_en.eq(en), w0.eq(rams[0].r_data)]
-        if not self._interpolate:
+        if self._interpolation == "hold":
             m.d.comb += self.o.eq(w0)
             return m
 
@@ -205,3 +253,109 @@ class StreamReplay(wiring.Component):
                                  s0b + ((prod + (1 << (INTERP_FRAC_BITS - 1))) >> INTERP_FRAC_BITS))]
         m.d.comb += self.o.eq(out)
         return m
+
+    def _elaborate_fir(self, m, ram, bank, len_m1, frac, swapping, j_step, refilling):
+        """The FIR interpolator: serial MAC into U[J..J+2], then the linear step."""
+        D, F, W, T, PB = self._depth, PHASE_FRAC_BITS, STREAM_WIDTH, FIR_TAPS, FIR_PHASE_BITS
+        en = self.en
+        # U[J], U[J+1], U[J+2]: index 0, 1, 2.
+        u = [Signal(IQ(W), name=f"u{k}") for k in range(3)]
+        # Next U to compute: word index ``tw`` and phase ``tp`` (target J = tw*2**PB + tp).
+        tw = Signal(range(D))
+        tp = Signal(PB)
+        jobs = Signal(range(4), init=3)          # U values still to compute
+        seq = Signal(range(3))                   # destination of the next job (0, 1, then 2)
+        issuing = Signal()
+        tap = Signal(range(T))
+        raddr = Signal(range(D))
+        cphase = Signal(PB)
+        dest = Signal(range(3))
+
+        start = Signal()
+        m.d.comb += start.eq(en & ~issuing & (jobs != 0))
+        with m.If(en):
+            m.d.sync += jobs.eq(jobs + j_step - start)
+            with m.If(j_step):
+                m.d.sync += [u[0].eq(u[1]), u[1].eq(u[2])]
+        with m.If(start):
+            lead = Signal(range(D + FIR_LEAD))
+            m.d.comb += lead.eq(tw + FIR_LEAD)
+            m.d.sync += [issuing.eq(1), tap.eq(0), cphase.eq(tp), dest.eq(seq),
+                         raddr.eq(Mux(lead > len_m1, lead - len_m1 - 1, lead)),
+                         tp.eq(tp + 1)]
+            with m.If(seq != 2):
+                m.d.sync += seq.eq(seq + 1)
+            with m.If(tp == (1 << PB) - 1):
+                m.d.sync += tw.eq(Mux(tw == len_m1, 0, tw + 1))
+        with m.Elif(en & issuing):
+            m.d.sync += [tap.eq(tap + 1), raddr.eq(Mux(raddr == 0, len_m1, raddr - 1))]
+            with m.If(tap == T - 1):
+                m.d.sync += issuing.eq(0)
+
+        # Coefficient ROM, addressed by (phase, tap); its address is delayed two
+        # samples so that the coefficient meets the RAM's word (latency 3).
+        coefs = fir_coefficients()
+        TB = (T - 1).bit_length()
+        rom_init = [0] * ((1 << PB) << TB)
+        for p, row in enumerate(coefs):
+            for k, c in enumerate(row):
+                rom_init[(p << TB) | k] = c
+        m.submodules.coef_rom = rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=len(rom_init),
+                                             init=rom_init)
+        rom_rd = rom.read_port(domain="sync")
+        ca = [Signal(PB + TB, name=f"coef_addr{k}") for k in range(2)]
+        issue = Signal()
+        m.d.comb += [issue.eq(issuing), ram.r_en.eq(en), ram.r_addr.eq(Cat(raddr, bank)),
+                     rom_rd.en.eq(en), rom_rd.addr.eq(ca[-1])]
+        flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
+        fl = [Signal(flags, name=f"mac_flags{k}") for k in range(6)]     # fl[k]: k samples after issue
+        m.d.comb += [fl[0].valid.eq(issue), fl[0].first.eq(tap == 0), fl[0].last.eq(tap == T - 1),
+                     fl[0].dest.eq(dest)]
+        with m.If(en):
+            m.d.sync += [ca[0].eq(Cat(tap, cphase)), ca[1].eq(ca[0])]
+            m.d.sync += [fl[k].eq(fl[k - 1]) for k in range(1, len(fl))]
+        with m.If(swapping):
+            # A switch cancels the jobs in flight and starts the refill.
+            m.d.sync += [issuing.eq(0), jobs.eq(3), seq.eq(0), tw.eq(0), tp.eq(0)]
+            m.d.sync += [fl[k].valid.eq(0) for k in range(1, len(fl))]
+
+        word = Signal(IQ(W))
+        m.d.comb += word.eq(ram.r_data)
+        for part in ("re", "im"):
+            mul = RegisteredMultiplier(W, FIR_COEF_WIDTH)
+            m.submodules[f"fir_mul_{part}"] = mul
+            m.d.comb += [mul.en.eq(en), mul.a.eq(getattr(word, part)), mul.b.eq(rom_rd.data)]
+            acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}")
+            with m.If(en & fl[4].valid):
+                m.d.sync += acc.eq(Mux(fl[4].first, mul.o, acc + mul.o))
+            rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}")
+            m.d.comb += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
+            lo, hi = -(1 << (W - 1)), (1 << (W - 1)) - 1
+            sat = Mux(rounded > hi, hi, Mux(rounded < lo, lo, rounded))
+            with m.If(en & fl[5].valid & fl[5].last):
+                with m.Switch(fl[5].dest):
+                    for k in range(3):
+                        with m.Case(k):
+                            m.d.sync += getattr(u[k], part).eq(sat)
+
+        # Linear step between U[J] and U[J+1]: difference, product, sum.
+        f = Signal(INTERP_FRAC_BITS)
+        m.d.comb += f.eq(frac[F - PB - INTERP_FRAC_BITS:F - PB])
+        f0 = Signal(INTERP_FRAC_BITS)
+        mute = [Signal(name=f"mute{k}") for k in range(2)]
+        with m.If(en):
+            m.d.sync += [f0.eq(f), mute[0].eq(refilling), mute[1].eq(mute[0])]
+        out = Signal(IQ(W))
+        for part in ("re", "im"):
+            diff = Signal(signed(W + 1), name=f"lin_diff_{part}")
+            a0 = Signal(signed(W), name=f"lin_a0_{part}")
+            a1 = Signal(signed(W), name=f"lin_a1_{part}")
+            mul = RegisteredMultiplier(W + 1, INTERP_FRAC_BITS + 1)
+            m.submodules[f"lin_mul_{part}"] = mul
+            m.d.comb += [mul.en.eq(en), mul.a.eq(diff), mul.b.eq(f0)]
+            with m.If(en):
+                m.d.sync += [diff.eq(getattr(u[1], part) - getattr(u[0], part)),
+                             a0.eq(getattr(u[0], part)), a1.eq(a0),
+                             getattr(out, part).eq(Mux(mute[1], 0, a1 + (
+                                 (mul.o + (1 << (INTERP_FRAC_BITS - 1))) >> INTERP_FRAC_BITS)))]
+        m.d.comb += self.o.eq(out)

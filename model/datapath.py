@@ -25,11 +25,12 @@ import numpy as np
 
 from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
                          INTERP_FRAC_BITS, PHASE_FRAC_BITS, SEGMENT_LATENCY, GAIN_LATENCY,
-                         STREAM_WIDTH, round_half_up, saturate, pack_iq, unpack_iq)
+                         STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
+                         FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate, pack_iq, unpack_iq)
 from .regmap import (register_map, ChannelInit, ID_VALUE, CTRL_ENABLE, CTRL_SWAP)
 
-__all__ = ["cmult", "gain_scale", "interpolate_words", "phase_sequence", "delay_line",
-           "channel_sum", "ReplayModel"]
+__all__ = ["cmult", "gain_scale", "interpolate_words", "fir_table", "stream_words",
+           "phase_sequence", "delay_line", "channel_sum", "ReplayModel"]
 
 ONE = 1 << PHASE_FRAC_BITS
 
@@ -53,6 +54,41 @@ def interpolate_words(s0, s1, frac32):
     f = np.asarray(frac32, dtype=np.int64) >> (PHASE_FRAC_BITS - INTERP_FRAC_BITS)
     s0 = np.asarray(s0, dtype=np.int64)
     return s0 + round_half_up((np.asarray(s1, dtype=np.int64) - s0) * f, INTERP_FRAC_BITS)
+
+
+def fir_table(i, q):
+    """The FIR stage's intermediate sequence of one period of words (signed
+    I and Q, length L): ``U[J]`` for J in [0, FIR_PHASES*L), shape (2, 16L).
+    ``U[J] = sat16(rhu(sum_k c[p][k]*m[(w + FIR_LEAD - k) mod L], FIR_COEF_FRAC))``
+    with ``w = J >> FIR_PHASE_BITS``, ``p = J mod FIR_PHASES``."""
+    m = np.stack([np.asarray(i, dtype=np.int64), np.asarray(q, dtype=np.int64)])
+    L = m.shape[1]
+    c = np.array(fir_coefficients(), dtype=np.int64)                    # (phases, taps)
+    taps = (np.arange(L)[:, None] + FIR_LEAD - np.arange(FIR_TAPS)[None, :]) % L   # (L, taps)
+    acc = m[:, taps] @ c.T                                              # (2, L, phases)
+    u, _ = saturate(round_half_up(acc, FIR_COEF_FRAC), STREAM_WIDTH)
+    return u.reshape(2, L * FIR_PHASES)
+
+
+def stream_words(interpolation, words, length, phases, table=None):
+    """The stream word (I, Q) at the multiplier for each phase (units of
+    2**-32 words, below ``length * 2**32``) under the contract's
+    ``interpolation``. ``table`` may pass a precomputed :func:`fir_table`."""
+    phases = np.asarray(phases, dtype=np.int64)
+    words = np.asarray(words, dtype=np.int64)[:length]
+    wi, wq = unpack_iq(words)
+    idx = phases >> PHASE_FRAC_BITS
+    if interpolation == "hold":
+        return wi[idx], wq[idx]
+    frac = phases & (ONE - 1)
+    if interpolation == "linear":
+        idx1 = np.where(idx + 1 >= length, 0, idx + 1)
+        return interpolate_words(wi[idx], wi[idx1], frac), interpolate_words(wq[idx], wq[idx1], frac)
+    u = fir_table(wi, wq) if table is None else table
+    j = phases >> (PHASE_FRAC_BITS - FIR_PHASE_BITS)
+    j1 = np.where(j + 1 >= length * FIR_PHASES, 0, j + 1)
+    f = (frac << FIR_PHASE_BITS) & (ONE - 1)
+    return interpolate_words(u[0, j], u[0, j1], f), interpolate_words(u[1, j], u[1, j1], f)
 
 
 def phase_sequence(start, inc, length, n):
@@ -113,8 +149,8 @@ class ReplayModel:
                                  f"the stream depth {c.stream_depth}")
             self.banks[l, 0, :len(ini.words)] = np.asarray(ini.words, dtype=np.int64) & 0xFFFFFFFF
         self.enable = [int(i.enable) for i in inits]
-        self.len_next = [i.length for i in inits]
-        self.inc_next = [i.phase_increment & (ONE - 1) for i in inits]
+        self.len_next = [min(max(i.length, c.min_stream_length), c.stream_depth) for i in inits]
+        self.inc_next = [min(i.phase_increment & (ONE - 1), c.max_phase_increment) for i in inits]
         self.len_act = list(self.len_next)
         self.inc_act = list(self.inc_next)
         self.gain = [i.gain & GAIN.max for i in inits]
@@ -123,6 +159,8 @@ class ReplayModel:
         self.bank = [0] * N
         self.pending = [0] * N
         self.phase = [0] * N
+        self.refill = [c.refill_samples] * N      # muted steps left (FIR), phase held at 0
+        self._tables = [None] * N                  # FIR table of the active bank, made on demand
         self.stream_sel = 0
         self.stream_addr = 0
         self.overflow = 0
@@ -145,6 +183,8 @@ class ReplayModel:
         self.inc_act[l] = self.inc_next[l]
         self.phase[l] = 0
         self.pending[l] = 0
+        self.refill[l] = self.c.refill_samples
+        self._tables[l] = None
 
     def write(self, addr, value):
         r = self.rmap.by_addr(addr)
@@ -209,15 +249,11 @@ class ReplayModel:
         return v
 
     # ---- data path -------------------------------------------------------
-    def _words(self, l, phases, bank_arr, length):
-        idx = phases >> PHASE_FRAC_BITS
-        wi, wq = unpack_iq(bank_arr[idx])
-        if not self.c.interpolate:
-            return wi, wq
-        idx1 = np.where(idx + 1 >= length, 0, idx + 1)
-        w1i, w1q = unpack_iq(bank_arr[idx1])
-        frac = phases & (ONE - 1)
-        return interpolate_words(wi, w1i, frac), interpolate_words(wq, w1q, frac)
+    def _words(self, l, phases):
+        words, length = self.banks[l, self.bank[l]], self.len_act[l]
+        if self.c.interpolation == "fir" and self._tables[l] is None:
+            self._tables[l] = fir_table(*unpack_iq(words[:length]))
+        return stream_words(self.c.interpolation, words, length, phases, self._tables[l])
 
     def _advance_streams(self, T):
         """Stream words produced from the states of the next T steps; updates state."""
@@ -226,6 +262,11 @@ class ReplayModel:
         for l in range(N):
             k = 0
             while k < T:
+                if self.refill[l]:
+                    n = min(self.refill[l], T - k)     # muted, phase held at 0
+                    k += n
+                    self.refill[l] -= n
+                    continue
                 length, inc, P = self.len_act[l], self.inc_act[l], self.phase[l]
                 n = T - k
                 if self.pending[l] and inc > 0:
@@ -237,7 +278,7 @@ class ReplayModel:
                 else:
                     swap_here = False
                 ph = phase_sequence(P, inc, length, n)
-                wi, wq = self._words(l, ph, self.banks[l, self.bank[l]], length)
+                wi, wq = self._words(l, ph)
                 w[l, 0, k:k + n], w[l, 1, k:k + n] = wi, wq
                 k += n
                 if swap_here:

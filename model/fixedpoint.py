@@ -93,7 +93,11 @@ def unpack_iq(words, width=STREAM_WIDTH):
 import math as _math
 
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
-            "INTERP_FRAC_BITS", "SEGMENT_LATENCY", "GAIN_LATENCY", "CHAIN_LATENCY",
+            "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
+            "FIR_LEAD", "FIR_KAISER_BETA", "FIR_CUTOFF", "FIR_COEF_WIDTH", "FIR_COEF_FRAC", "FIR_ACC_WIDTH", "FIR_MAX_INCREMENT",
+            "FIR_MIN_LENGTH", "FIR_REFILL_SAMPLES", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
+            "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
+            "SEGMENT_LATENCY", "GAIN_LATENCY", "CHAIN_LATENCY",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
             "cmult_latency", "stream_latency", "ReplayContract"]
 
@@ -107,6 +111,86 @@ GAIN_SHIFT = GAIN_FRAC
 SCALED_WIDTH = PRODUCT_WIDTH + (GAIN_WIDTH - GAIN_FRAC)             # 19
 #: Fractional phase bits used by the linear interpolator (top bits of the phase).
 INTERP_FRAC_BITS = 16
+
+# ---------------------------------------------------------------------------
+# Stream interpolation (``interpolation`` of the contract):
+#
+# * ``"hold"``: the word at the phase index, held (exact only when the stream
+#   runs at one word per sample, the seed's mode);
+# * ``"linear"``: ``s0 + round_half_up((s1 - s0)*f, 16)`` between adjacent words;
+# * ``"fir"`` (default): two stages. A polyphase FIR (FIR_PHASES phases of
+#   FIR_TAPS taps, a Kaiser-windowed sinc) makes the intermediate sequence
+#   U[J] at FIR_PHASES x the stream rate, J = index*FIR_PHASES + top
+#   FIR_PHASE_BITS of the fraction:
+#
+#     U[J] = sat16(round_half_up(sum_k c[p][k] * m[(w + FIR_LEAD - k) mod L], FIR_COEF_FRAC))
+#
+#   (w = J >> FIR_PHASE_BITS, p = J mod FIR_PHASES), then the word at the
+#   multiplier is the linear step ``U[J] + round_half_up((U[J+1] - U[J])*f, 16)``
+#   with f the next 16 fraction bits (U wraps at FIR_PHASES*L). U is computed
+#   by one serial multiplier-accumulator per channel, one tap per sample, only
+#   when J advances; the increment is limited so that J advances at most once
+#   per FIR_MIN_SAMPLES_PER_STEP samples, which leaves the MAC time to finish.
+#   After every bank switch (and reset) the channel is muted, its phase held
+#   at 0, for FIR_REFILL_SAMPLES samples while U[0..2] are computed.
+# ---------------------------------------------------------------------------
+
+INTERPOLATIONS = ("hold", "linear", "fir")
+FIR_PHASE_BITS = 5
+FIR_PHASES = 1 << FIR_PHASE_BITS
+FIR_TAPS = 10
+#: Tap k reads word ``w + FIR_LEAD - k``: the kernel spans words w-4 .. w+5.
+FIR_LEAD = 5
+FIR_KAISER_BETA = 8.0
+#: Cut-off of the kernel as a fraction of half the stream rate (below 1 buys
+#: stopband at 3/4 of the stream rate, where the first images of a 4x stream lie).
+FIR_CUTOFF = 0.95
+FIR_COEF_WIDTH = 18
+FIR_COEF_FRAC = 16
+#: Accumulator of one U value: 16 x 18 bit products, FIR_TAPS of them.
+FIR_ACC_WIDTH = STREAM_WIDTH + FIR_COEF_WIDTH + (FIR_TAPS - 1).bit_length()
+#: Samples between two advances of J, at least: the serial MAC needs 17 from
+#: an advance to the next U value in its register.
+FIR_MIN_SAMPLES_PER_STEP = 24
+#: Largest PHASE_INC of a FIR build (5592405: stream rate <= sample rate / 768).
+FIR_MAX_INCREMENT = (1 << (PHASE_FRAC_BITS - FIR_PHASE_BITS)) // FIR_MIN_SAMPLES_PER_STEP
+#: Shortest LENGTH of a FIR build (the kernel's start address needs one wrap at most).
+FIR_MIN_LENGTH = 8
+#: Samples a channel stays muted (phase held at 0) after a bank switch or reset.
+FIR_REFILL_SAMPLES = 48
+
+
+def fir_prototype() -> "np.ndarray":
+    """The FIR's prototype at FIR_PHASES x the stream rate, offsets
+    ``-(FIR_PHASES*FIR_LEAD - 1) .. FIR_PHASES*FIR_LEAD - 1``: a low-pass
+    ``a*sinc(a*d/FIR_PHASES)`` (a = FIR_CUTOFF, cut-off a/2 of the stream
+    rate, gain 1 per phase) times a Kaiser window (beta FIR_KAISER_BETA)."""
+    import numpy as np
+    half = FIR_PHASES * FIR_LEAD - 1
+    d = np.arange(-half, half + 1)
+    a = FIR_CUTOFF
+    return a * np.sinc(a * d / FIR_PHASES) * np.kaiser(2 * half + 1, FIR_KAISER_BETA)
+
+
+def fir_coefficients() -> tuple[tuple[int, ...], ...]:
+    """``c[p][k]`` (FIR_PHASES x FIR_TAPS signed FIR_COEF_WIDTH-bit integers,
+    FIR_COEF_FRAC fractional bits): the prototype at offset
+    ``p + FIR_PHASES*(k - FIR_LEAD)``
+    (0 outside it), rounded to nearest."""
+    import numpy as np
+    g = fir_prototype()
+    half = (len(g) - 1) // 2
+    table = []
+    for p in range(FIR_PHASES):
+        row = []
+        for k in range(FIR_TAPS):
+            d = p + FIR_PHASES * (k - FIR_LEAD)
+            v = g[d + half] if -half <= d <= half else 0.0
+            row.append(int(np.round(v * (1 << FIR_COEF_FRAC))))
+        table.append(tuple(row))
+    lim = 1 << (FIR_COEF_WIDTH - 1)
+    assert all(-lim <= v < lim for row in table for v in row)
+    return tuple(table)
 
 #: Pipeline latency (in samples) of one delay segment beyond its programmed
 #: delay: registered read address, block-RAM read, registered RAM output.
@@ -146,11 +230,37 @@ def cmult_latency(form: str) -> int:
     return {"4mult": 3, "3mult": 4}[form]
 
 
-def stream_latency(interpolate: bool) -> int:
-    """Samples from the phase register to the stream word at the multiplier:
-    read address register, block RAM read, block RAM output register (plus
-    three interpolation stages)."""
-    return 6 if interpolate else 3
+def _check_interpolation(interpolation):
+    if interpolation not in INTERPOLATIONS:
+        raise ValueError(f"Interpolation must be one of {', '.join(INTERPOLATIONS)}, not {interpolation!r}")
+
+
+def stream_latency(interpolation: str) -> int:
+    """Samples from the phase register to the stream word at the multiplier.
+
+    hold: read address register, block RAM read, block RAM output register;
+    linear: those and three interpolation stages; fir: the U registers are
+    ready with the phase, then difference, product and sum (three stages)."""
+    _check_interpolation(interpolation)
+    return {"hold": 3, "linear": 6, "fir": 3}[interpolation]
+
+
+def refill_samples(interpolation: str) -> int:
+    """Samples a channel is muted (phase held at 0) after a bank switch or reset."""
+    _check_interpolation(interpolation)
+    return FIR_REFILL_SAMPLES if interpolation == "fir" else 0
+
+
+def max_phase_increment(interpolation: str) -> int:
+    """Largest PHASE_INC the block accepts (larger values are clamped)."""
+    _check_interpolation(interpolation)
+    return FIR_MAX_INCREMENT if interpolation == "fir" else (1 << PHASE_FRAC_BITS) - 1
+
+
+def min_stream_length(interpolation: str) -> int:
+    """Shortest LENGTH the block accepts (shorter values are clamped)."""
+    _check_interpolation(interpolation)
+    return FIR_MIN_LENGTH if interpolation == "fir" else 1
 
 
 @dataclass(frozen=True)
@@ -167,8 +277,9 @@ class ReplayContract:
         Largest programmable common delay (segment of channel 0), samples.
     max_increment : int
         Largest programmable delay increment of channels 1..N-1, samples.
-    interpolate : bool
-        Linear interpolation between adjacent stream words.
+    interpolation : str
+        ``"fir"`` (default, images below -70 dB), ``"linear"`` or ``"hold"``
+        (see the interpolation section above).
     cmult_form : str
         ``"4mult"`` or ``"3mult"`` complex multiplier (identical results).
     """
@@ -176,7 +287,7 @@ class ReplayContract:
     stream_depth: int = 4096
     max_delay: int = 4094
     max_increment: int = 1022
-    interpolate: bool = False
+    interpolation: str = "fir"
     cmult_form: str = "4mult"
 
     def __post_init__(self):
@@ -194,8 +305,10 @@ class ReplayContract:
             raise ValueError(f"Stream depth must be a power of two of at least 2, not {self.stream_depth!r}")
         posint("max_delay", "Maximum delay", self.max_delay, 0, 1 << 20)
         posint("max_increment", "Maximum delay increment", self.max_increment, 0, 1 << 20)
-        if not isinstance(self.interpolate, bool):
-            raise TypeError(f"Interpolate must be a bool, not {self.interpolate!r}")
+        _check_interpolation(self.interpolation)
+        if self.interpolation == "fir" and self.stream_depth < FIR_MIN_LENGTH:
+            raise ValueError(f"Stream depth must be at least {FIR_MIN_LENGTH} with FIR interpolation, "
+                             f"not {self.stream_depth!r}")
         if self.cmult_form not in CMULT_FORMS:
             raise ValueError(f"Complex multiplier form must be one of 4mult, 3mult, not {self.cmult_form!r}")
 
@@ -213,7 +326,19 @@ class ReplayContract:
 
     @property
     def stream_latency(self) -> int:
-        return stream_latency(self.interpolate)
+        return stream_latency(self.interpolation)
+
+    @property
+    def refill_samples(self) -> int:
+        return refill_samples(self.interpolation)
+
+    @property
+    def max_phase_increment(self) -> int:
+        return max_phase_increment(self.interpolation)
+
+    @property
+    def min_stream_length(self) -> int:
+        return min_stream_length(self.interpolation)
 
     @property
     def latency(self) -> int:

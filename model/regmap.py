@@ -18,7 +18,7 @@ Access kinds of a field:
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
+from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ChannelInit",
            "ID_VALUE", "CHANNEL_BASE", "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP",
@@ -119,14 +119,15 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
     c = contract
     inits = list(inits or [])
     inits += [ChannelInit()] * (c.channels - len(inits))
-    config = c.channels | (int(c.interpolate) << 8) | (int(c.cmult_form == "3mult") << 9)
+    interp_code = INTERPOLATIONS.index(c.interpolation)
+    config = c.channels | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
     regs = [
         Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
                  "identification"),
         Register("CONFIG", 0x01, (Field("channels", 0, 8, "ro", c.channels, "channel count N"),
-                                  Field("interpolate", 8, 1, "ro", int(c.interpolate),
-                                        "1: linear interpolation between stream words"),
-                                  Field("cmult3", 9, 1, "ro", int(c.cmult_form == "3mult"),
+                                  Field("interpolation", 8, 2, "ro", interp_code,
+                                        "stream interpolation: 0 hold, 1 linear, 2 FIR"),
+                                  Field("cmult3", 10, 1, "ro", int(c.cmult_form == "3mult"),
                                         "1: 3-multiplier complex product")),
                  f"elaboration parameters (reads {config:#x} here)"),
         Register("LATENCY", 0x02, (Field("latency", 0, 16, "ro", c.latency,
@@ -167,12 +168,17 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
                       "write 1: switch to the other bank at the next period boundary (at once if "
                       "the write leaves the channel disabled); reads 1 while pending"),
                 Field("bank", 2, 1, "ro", 0, "active bank")), "channel control", ch),
-            Register("LENGTH", base + 1, (Field("length", 0, c.length_width, "rw", ini.length,
-                                                "stream length in words for the next bank (1..depth)",
-                                                clamp=(1, c.stream_depth)),),
+            Register("LENGTH", base + 1, (Field("length", 0, c.length_width, "rw",
+                                                min(max(ini.length, c.min_stream_length), c.stream_depth),
+                                                f"stream length in words for the next bank "
+                                                f"({c.min_stream_length}..depth)",
+                                                clamp=(c.min_stream_length, c.stream_depth)),),
                      "latched into the stream at the bank switch", ch),
-            Register("PHASE_INC", base + 2, (Field("inc", 0, PHASE_FRAC_BITS, "rw", ini.phase_increment,
-                                                   "stream words per sample * 2**32 for the next bank"),),
+            Register("PHASE_INC", base + 2, (Field("inc", 0, PHASE_FRAC_BITS, "rw",
+                                                   min(ini.phase_increment & ((1 << PHASE_FRAC_BITS) - 1), c.max_phase_increment),
+                                                   "stream words per sample * 2**32 for the next bank "
+                                                   f"(0..{c.max_phase_increment})",
+                                                   clamp=(0, c.max_phase_increment)),),
                      "latched into the stream at the bank switch", ch),
             Register("GAIN", base + 3, (Field("gain", 0, GAIN_WIDTH, "rw", ini.gain,
                                               "gain, unsigned, 16 fractional bits"),),

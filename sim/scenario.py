@@ -134,7 +134,7 @@ TEST_CONTRACT = dict(stream_depth=512, max_delay=200, max_increment=40)
 
 
 def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: int = 40,
-                    interpolate: bool = False,
+                    interpolation: str = "fir",
                     pri: int = 240, pulse_samples: int = 48, gap_thresh: int = 48,
                     stall_thresh: int = 48, mid_run_writes: int = 8) -> Scenario:
     """Random streams, delays, gains and enables, and random register writes at
@@ -146,7 +146,7 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
     overflow flag is set).
     """
     rng = np.random.default_rng(seed)
-    c = ReplayContract(channels=channels, interpolate=interpolate, **TEST_CONTRACT)
+    c = ReplayContract(channels=channels, interpolation=interpolation, **TEST_CONTRACT)
     rmap = register_map(c)
     a = rmap.addr
     full = kind == "saturate"

@@ -159,10 +159,10 @@ class StreamRef:
         else:
             self.idx, self.frac = self.idx + carry, acc & (ONE - 1)
 
-    def word(self, interpolate):
+    def word(self, interpolation):
         b = self.banks[self.bank]
         wi, wq = unpack_iq(b[self.idx])
-        if not interpolate:
+        if interpolation == "hold":
             return int(wi), int(wq)
         j = 0 if self.idx + 1 == self.length else self.idx + 1
         w1i, w1q = unpack_iq(b[j])
@@ -173,7 +173,7 @@ class StreamRef:
 @cocotb.test()
 async def stream_replay(dut):
     p = params()
-    depth, interp, lat = p["depth"], p["interpolate"], p["latency"]
+    depth, interp, lat = p["depth"], p["interpolation"], p["latency"]
     rng = np.random.default_rng(p["seed"])
     ref = StreamRef(depth)
     bench = StepBench(dut, en_pattern=p["en_pattern"], seed=p["seed"])
@@ -242,6 +242,6 @@ async def stream_replay(dut):
         rb, ri, rl = rtl_state[step - lat]
         return (f"model state {lat} steps earlier: bank {b} index {i} frac 0x{f:08x}; "
                 f"RTL then: bank {rb} index {ri} length {rl}")
-    Scoreboard(f"stream_replay[{'interp' if interp else 'hold'}]", context=ctx).check(
+    Scoreboard(f"stream_replay[{interp}]", context=ctx).check(
         {"I": (gi[lat:], ei), "Q": (gq[lat:], eq)},
         times_ns=np.array(times)[lat:], index=np.arange(lat, o.size))

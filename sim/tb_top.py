@@ -25,7 +25,7 @@ def scenario_from_params(p: dict) -> Scenario:
     if p["kind"] == "farm":
         return farm_scenario(p["channels"], p["seed"], gap_thresh=p["gap_thresh"],
                              stall_thresh=p["stall_thresh"])
-    return random_scenario(p["channels"], p["seed"], kind=p["kind"], interpolate=p.get("interpolate", False),
+    return random_scenario(p["channels"], p["seed"], kind=p["kind"], interpolation=p.get("interpolation", "fir"),
                            gap_thresh=p["gap_thresh"], stall_thresh=p["stall_thresh"],
                            pulses=p.get("pulses", 40))
 

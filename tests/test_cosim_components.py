@@ -41,7 +41,7 @@ def test_delay_line(simulator, max_delay, en_pattern):
 
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
-@pytest.mark.parametrize("interpolate", [False, True], ids=["hold", "interp"])
+@pytest.mark.parametrize("interpolation", ["hold", "linear"])
 @pytest.mark.parametrize("en_pattern", ["none", "1000", "random"])
 @pytest.mark.parametrize("rates", [
     # (length1, inc1, length2, inc2): a rate that does not divide 2**32 and a
@@ -50,16 +50,16 @@ def test_delay_line(simulator, max_delay, en_pattern):
     (13, int(0.37 * 2 ** 32), 7, 2 ** 32 - 1),
     (64, 2 ** 31 + 12345, 3, int(0.05 * 2 ** 32)),
 ], ids=["frac-then-max", "full-then-slow"])
-def test_stream_replay(simulator, interpolate, en_pattern, rates):
+def test_stream_replay(simulator, interpolation, en_pattern, rates):
     depth = 64
-    dut = StreamReplay(depth, interpolate=interpolate)
+    dut = StreamReplay(depth, interpolation=interpolation)
     L1, inc1, L2, inc2 = rates
-    name = "stream_interp" if interpolate else "stream_hold"
+    name = f"stream_{interpolation}"
     # long enough to pass several wraps of stream 1, the switch, and wraps of stream 2
     n1 = int(3 * L1 * 2 ** 32 / inc1) + 10
     n2 = int(L1 * 2 ** 32 / inc1) + int(3 * L2 * 2 ** 32 / inc2) + 10
     cocotb_run({f"{name}.v": verilog_of(dut, name)}, name, MODULE, "stream_replay",
                simulator=simulator, name=f"{name}-{en_pattern}-{L1}-{L2}",
-               tb_params=dict(depth=depth, interpolate=interpolate, latency=stream_latency(interpolate),
+               tb_params=dict(depth=depth, interpolation=interpolation, latency=stream_latency(interpolation),
                               length1=L1, inc1=inc1, length2=L2, inc2=inc2, n1=n1, n2=n2,
                               seed=3, en_pattern=en_pattern))

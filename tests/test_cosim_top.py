@@ -17,14 +17,14 @@ MODULE = "rast.sim.tb_top"
 STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 
 
-def _run(simulator, channels, kind, seed, stalls, interpolate=False):
-    sources, top = top_sources(channels, interpolate=interpolate, **TEST_CONTRACT)
+def _run(simulator, channels, kind, seed, stalls, interpolation="fir"):
+    sources, top = top_sources(channels, interpolation=interpolation, **TEST_CONTRACT)
     g, s = STALLS[stalls]
     cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator, public_all=False,
-               label=f"top{channels}{'i' if interpolate else ''}",
+               label=f"top{channels}{interpolation}",
                name=f"{kind}-{channels}ch-{stalls}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=g,
-                              stall_thresh=s, interpolate=interpolate))
+                              stall_thresh=s, interpolation=interpolation))
 
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
@@ -42,4 +42,4 @@ def test_top(simulator, channels, kind, stalls, seed):
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_top_interpolating(simulator):
-    _run(simulator, 4, "random", 77, "gaps", interpolate=True)
+    _run(simulator, 4, "random", 77, "gaps", interpolation="linear")

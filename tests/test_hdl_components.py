@@ -52,9 +52,13 @@ def test_stream_replay_parameters():
     with pytest.raises(ValueError, match=r"^Stream depth must be a power of two of at least 2, not 6$"):
         StreamReplay(6)
     with pytest.raises(ValueError, match=r"^Initial stream must have at most 4 words, not 5$"):
-        StreamReplay(4, init=[0] * 5)
-    with pytest.raises(TypeError, match=r"^Interpolate must be a bool, not 1$"):
-        StreamReplay(4, interpolate=1)
+        StreamReplay(4, init=[0] * 5, interpolation="hold")
+    with pytest.raises(ValueError, match=r"^Interpolation must be one of hold, linear, fir, not 'cubic'$"):
+        StreamReplay(16, interpolation="cubic")
+    with pytest.raises(ValueError, match=r"^Stream depth must be at least 8 with fir interpolation, not 4$"):
+        StreamReplay(4)
+    with pytest.raises(ValueError, match=r"^Initial increment must be an integer in \[0, 5592405\], not 5592406$"):
+        StreamReplay(16, init_increment=5592406)
 
 
 @pytest.mark.parametrize("args, exc, msg", [
@@ -172,24 +176,28 @@ def _run_stream(dut, steps, en_pat=(1,)):
     return np.array(idx), np.array(words)
 
 
-@pytest.mark.parametrize("interpolate", [False, True])
-def test_stream_replay_wraps_at_length(interpolate):
+@pytest.mark.parametrize("interpolation", ["hold", "linear", "fir"])
+def test_stream_replay_wraps_at_length(interpolation):
     rng = np.random.default_rng(7)
     depth, length = 16, 11
     wi, wq = rng.integers(-32768, 32768, depth), rng.integers(-32768, 32768, depth)
     words = pack_iq(wi, wq)
-    inc = int(rng.integers(ONE // 5, ONE))
-    dut = StreamReplay(depth, interpolate=interpolate, init=list(words), init_length=length,
+    c = ReplayContract(channels=1, stream_depth=depth, interpolation=interpolation)
+    # FIR: the largest rates it takes, so J advances as often as allowed
+    inc = int(rng.integers(c.max_phase_increment // 5, c.max_phase_increment + 1))
+    dut = StreamReplay(depth, interpolation=interpolation, init=list(words), init_length=length,
                        init_increment=inc)
-    steps = 1500
+    # FIR: the phase is held at 0 for the refill after reset
+    mute = c.refill_samples
+    steps = mute + length * ONE // inc + 600
     idx, got = _run_stream(dut, steps, en_pat=(1, 1, 0))
-    ph = dp.phase_sequence(0, inc, length, steps)
+    ph = np.concatenate([np.zeros(mute, dtype=np.int64), dp.phase_sequence(0, inc, length, steps - mute)])
     assert (idx == ph >> 32).all()
     assert idx.max() == length - 1
-    # word at step n comes from the phase at step n - latency
-    m = dp.ReplayModel.__new__(dp.ReplayModel)
-    m.c = ReplayContract(channels=1, stream_depth=depth, interpolate=interpolate)
-    ei, eq = m._words(0, ph, words, length)
+    # word at step n comes from the phase at step n - latency; 0 while muted
+    ei, eq = dp.stream_words(interpolation, words, length, ph)
+    ei[:mute] = 0
+    eq[:mute] = 0
     lat = dut.latency
     for n in range(lat, steps):
         assert tuple(got[n]) == (ei[n - lat], eq[n - lat]), \
@@ -199,7 +207,7 @@ def test_stream_replay_wraps_at_length(interpolate):
 def test_stream_replay_long_run_exact_period():
     # 3 words at 0.3709... words per sample: thousands of wraps, index exact at every step
     inc = 1593012345
-    dut = StreamReplay(4, init=[1, 2, 3], init_length=3, init_increment=inc)
+    dut = StreamReplay(4, interpolation="hold", init=[1, 2, 3], init_length=3, init_increment=inc)
     steps = 20000
     idx, _ = _run_stream(dut, steps)
     ph = dp.phase_sequence(0, inc, 3, steps)

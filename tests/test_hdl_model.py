@@ -14,7 +14,7 @@ from rast.model.regmap import ChannelInit, CTRL_ENABLE, CTRL_SWAP
 def _random_session(seed, lookback=None):
     rng = np.random.default_rng(seed)
     c = ReplayContract(channels=3, stream_depth=8, max_delay=30, max_increment=9,
-                       interpolate=bool(seed % 2))
+                       interpolation=("hold", "linear", "fir")[seed % 3])
     inits = [ChannelInit(tuple(int(w) for w in pack_iq(rng.integers(-32768, 32768, 5),
                                                        rng.integers(-32768, 32768, 5))),
                          int(rng.integers(0, 1 << 32)), int(rng.integers(0, 1 << 17)),

@@ -14,7 +14,8 @@ from rast.model.regmap import (ChannelInit, register_map, manifest_to_register_w
 
 from hdl_harness import run_replay, model_replay, assert_same, assert_reads
 
-KW = dict(stream_depth=16, max_delay=20, max_increment=6)
+# Hold: the tests below check exact words and echo positions (FIR: test_hdl_fir.py).
+KW = dict(stream_depth=16, max_delay=20, max_increment=6, interpolation="hold")
 
 
 def rand_inits(rng, n, depth=16, enable=True):
@@ -52,12 +53,12 @@ STALLS = [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1)), ((0, 1, 0, 0, 1), (1,)), ((1,
 
 
 @pytest.mark.parametrize("valid, ready", STALLS)
-@pytest.mark.parametrize("channels, opts", [(1, {}), (3, {}), (2, dict(interpolate=True)),
-                                            (2, dict(cmult_form="3mult"))])
+@pytest.mark.parametrize("channels, opts", [(1, {}), (3, {}), (2, dict(interpolation="linear")),
+                                            (2, dict(interpolation="fir")), (2, dict(cmult_form="3mult"))])
 def test_random_against_model(channels, opts, valid, ready):
     rng = np.random.default_rng(channels * 100 + len(valid) * 10 + len(ready) + len(opts))
     inits = rand_inits(rng, channels)
-    dut = WindFarmReplay(channels, init=inits, **KW, **opts)
+    dut = WindFarmReplay(channels, init=inits, **{**KW, **opts})
     T = 300
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     check(dut, inits, xi, xq, valid=valid, ready=ready, name=f"N={channels} {opts} {valid} {ready}")
@@ -238,7 +239,7 @@ def test_random_register_stress(seed):
     N = 2
     kw = dict(stream_depth=4, max_delay=5, max_increment=3)
     inits = rand_inits(rng, N, depth=4)
-    dut = WindFarmReplay(N, init=inits, interpolate=bool(seed % 2), **kw)
+    dut = WindFarmReplay(N, init=inits, interpolation=("hold", "linear")[seed % 2], **kw)
     a = dut.register_map.addr
     T = 500
     xi = rng.integers(-32768, 32768, T); xq = rng.integers(-32768, 32768, T)
@@ -273,7 +274,7 @@ def test_forced_switch_racing_a_wrap():
     a pending switch: both switches happen (bank toggles twice), as in the model."""
     words = [int(pack_iq([1000 * (k + 1)], [0])[0]) for k in range(4)]
     inits = [ChannelInit((words[0],), (1 << 32) - 1, 1 << 16, 0, True)]
-    dut = WindFarmReplay(1, init=inits, stream_depth=4, max_delay=3, max_increment=1)
+    dut = WindFarmReplay(1, init=inits, stream_depth=4, max_delay=3, max_increment=1, interpolation="hold")
     a = dut.register_map.addr
     T = 80
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
@@ -291,7 +292,7 @@ def test_forced_switch_racing_a_wrap():
 def test_sixteen_channels():
     rng = np.random.default_rng(16)
     inits = rand_inits(rng, 16, depth=4)
-    dut = WindFarmReplay(16, init=inits, stream_depth=4, max_delay=5, max_increment=2)
+    dut = WindFarmReplay(16, init=inits, stream_depth=4, max_delay=5, max_increment=2, interpolation="hold")
     assert dut.latency == 54
     T = 160
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)

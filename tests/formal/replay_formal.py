@@ -28,14 +28,14 @@ from rast.hdl.stream_replay import StreamReplay    # noqa: E402
 
 
 class StreamAddressCheck(Elaboratable):
-    def __init__(self, depth=8, interpolate=False):
+    def __init__(self, depth=8, interpolation="hold"):
         self.depth = depth
-        self.interpolate = interpolate
+        self.interpolation = interpolation
 
     def elaborate(self, platform):
         m = Module()
         D = self.depth
-        m.submodules.dut = dut = StreamReplay(D, interpolate=self.interpolate, init=[1, 2, 3],
+        m.submodules.dut = dut = StreamReplay(D, interpolation=self.interpolation, init=[1, 2, 3],
                                               init_length=3, init_increment=1 << 31)
         length = AnySeq(range(D + 1))
         m.d.comb += [Assume(length >= 1), Assume(length <= D), Assume(~ResetSignal())]
@@ -78,7 +78,7 @@ class DelayExactCheck(Elaboratable):
 
 CHECKS = {
     "stream_address": (lambda: StreamAddressCheck(), "prove", 12),
-    "stream_address_interp": (lambda: StreamAddressCheck(interpolate=True), "prove", 12),
+    "stream_address_interp": (lambda: StreamAddressCheck(interpolation="linear"), "prove", 12),
     # depth-4 RAM, 24 steps: six wraps of the write pointer (4 s)
     "delay_exact": (lambda: DelayExactCheck(max_delay=2, width=2), "bmc", 24),
     # depth-8 RAM, 30 steps (about 5 minutes)
