@@ -175,19 +175,21 @@ def fir_prototype() -> "np.ndarray":
 def fir_coefficients() -> tuple[tuple[int, ...], ...]:
     """``c[p][k]`` (FIR_PHASES x FIR_TAPS signed FIR_COEF_WIDTH-bit integers,
     FIR_COEF_FRAC fractional bits): the prototype at offset
-    ``p + FIR_PHASES*(k - FIR_LEAD)``
-    (0 outside it), rounded to nearest."""
+    ``p + FIR_PHASES*(k - FIR_LEAD)`` (0 outside it), each phase scaled to
+    unit sum and rounded to nearest, the rounding residual added to its
+    largest tap, so that every phase sums to exactly ``2**FIR_COEF_FRAC``:
+    constant words pass unchanged, and the phases' DC gains cannot differ
+    (a difference would modulate at the intermediate rate: an image)."""
     import numpy as np
     g = fir_prototype()
     half = (len(g) - 1) // 2
     table = []
     for p in range(FIR_PHASES):
-        row = []
-        for k in range(FIR_TAPS):
-            d = p + FIR_PHASES * (k - FIR_LEAD)
-            v = g[d + half] if -half <= d <= half else 0.0
-            row.append(int(np.round(v * (1 << FIR_COEF_FRAC))))
-        table.append(tuple(row))
+        d = p + FIR_PHASES * (np.arange(FIR_TAPS) - FIR_LEAD)
+        v = np.where(np.abs(d) <= half, g[np.clip(d + half, 0, 2 * half)], 0.0)
+        row = np.round(v / v.sum() * (1 << FIR_COEF_FRAC)).astype(np.int64)
+        row[np.argmax(np.abs(row))] += (1 << FIR_COEF_FRAC) - row.sum()
+        table.append(tuple(int(x) for x in row))
     lim = 1 << (FIR_COEF_WIDTH - 1)
     assert all(-lim <= v < lim for row in table for v in row)
     return tuple(table)

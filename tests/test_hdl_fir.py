@@ -1,0 +1,128 @@
+"""The FIR interpolator of the replay block: gateware against the bit-exact
+model (Amaranth simulator), and the interpolator against the signal it
+interpolates (independent of the model)."""
+
+import numpy as np
+import pytest
+
+from rast.hdl.replay_top import WindFarmReplay
+from rast.model import datapath as dp
+from rast.model.fixedpoint import (pack_iq, FIR_MAX_INCREMENT, FIR_MIN_LENGTH, FIR_REFILL_SAMPLES,
+                                   FIR_PHASES, PHASE_FRAC_BITS, STREAM)
+from rast.model.regmap import ChannelInit, CTRL_ENABLE, CTRL_SWAP
+
+from hdl_harness import run_replay, model_replay, assert_same
+
+KW = dict(stream_depth=32, max_delay=12, max_increment=4, interpolation="fir")
+
+
+def _inits(rng, n, depth=32):
+    out = []
+    for _ in range(n):
+        length = int(rng.integers(FIR_MIN_LENGTH, depth + 1))
+        words = pack_iq(rng.integers(-32768, 32768, length), rng.integers(-32768, 32768, length))
+        inc = int(rng.integers(FIR_MAX_INCREMENT // 2, FIR_MAX_INCREMENT + 1))
+        out.append(ChannelInit(tuple(int(w) for w in words), inc, int(rng.integers(1 << 15, 1 << 17)),
+                               int(rng.integers(0, 4)), True))
+    return out
+
+
+def _check(dut, inits, xi, xq, ops=(), valid=(1,), ready=(1,), name="fir"):
+    hi, hq, done = run_replay(dut, xi, xq, ops, valid, ready)
+    mi, mq, _, model = model_replay(dut.contract, inits, xi, xq, done)
+    assert_same(name, xi, xq, hi, hq, mi, mq)
+    return hi, hq, model
+
+
+@pytest.mark.parametrize("valid, ready", [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1))])
+def test_fir_at_its_highest_rate_matches_model(valid, ready):
+    """Increments up to the largest the MAC can follow (J advances every 24
+    samples), random full-scale words, every stall pattern: integer equal."""
+    rng = np.random.default_rng(len(valid) + 10 * len(ready))
+    inits = _inits(rng, 2)
+    dut = WindFarmReplay(2, init=inits, **KW)
+    T = 2500
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    hi, _, _ = _check(dut, inits, xi, xq, valid=valid, ready=ready)
+    # muted while the MAC refills after reset, then playing
+    assert np.count_nonzero(hi[dut.latency + FIR_REFILL_SAMPLES:]) > 0.9 * (T - dut.latency - FIR_REFILL_SAMPLES)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_fir_reloads_and_forced_switches_match_model(seed):
+    """Stream reloads switching at the period boundary, forced switches (also
+    in the middle of a refill), rate and length writes beyond the clamps."""
+    rng = np.random.default_rng(200 + seed)
+    N = 2
+    inits = _inits(rng, N, depth=16)
+    dut = WindFarmReplay(N, init=inits, **dict(KW, stream_depth=16))
+    a = dut.register_map.addr
+    T = 3000
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    ops = []
+    for k in sorted(rng.integers(0, T, 40).tolist()):
+        l = int(rng.integers(0, N))
+        r = rng.integers(0, 6)
+        if r == 0:                       # reload, switch at the period boundary
+            ops += [(k, "w", a("STREAM_SEL"), l), (k, "w", a("STREAM_ADDR"), 0)]
+            ops += [(k, "w", a("STREAM_DATA"), int(rng.integers(0, 1 << 32))) for _ in range(16)]
+            ops += [(k, "w", a("LENGTH", l), int(rng.integers(1, 20))),           # clamped to 8..16
+                    (k, "w", a("PHASE_INC", l), int(rng.integers(1 << 20, 1 << 32))),  # clamped
+                    (k, "w", a("CTRL", l), CTRL_ENABLE | CTRL_SWAP)]
+        elif r == 1:                     # forced switch (disabled channel)
+            ops += [(k, "w", a("CTRL", l), CTRL_SWAP), (k + 1, "w", a("CTRL", l), CTRL_ENABLE)]
+        elif r == 2:
+            ops.append((k, "w", a("GAIN", l), int(rng.integers(0, 1 << 17))))
+        elif r == 3:
+            ops.append((k, "r", a("CTRL", l), 0))
+        elif r == 4:
+            ops.append((k, "r", a("PHASE_INC", l), 0))
+        else:
+            ops += [(k, "w", a("DELAY", l), int(rng.integers(0, 5))), (k, "w", a("APPLY"), 1)]
+    ops.sort(key=lambda o: o[0])
+    _check(dut, inits, xi, xq, ops, valid=(1, 1, 0), ready=(1, 1, 1, 0), name=f"fir stress {seed}")
+
+
+def test_fir_clamps_rate_and_length():
+    dut = WindFarmReplay(1, **KW)
+    a = dut.register_map.addr
+    ops = [(0, "w", a("PHASE_INC", 0), 1 << 31), (0, "w", a("LENGTH", 0), 3),
+           (1, "r", a("PHASE_INC", 0), 0), (1, "r", a("LENGTH", 0), 0)]
+    hi, hq, done = run_replay(dut, np.zeros(4, np.int64), np.zeros(4, np.int64), ops, (1,), (1,))
+    assert [v for k, kind, ad, v in done if kind == "r"] == [FIR_MAX_INCREMENT, FIR_MIN_LENGTH]
+
+
+def test_fir_interpolates_a_band_limited_tone():
+    """Independent of the model's code: a complex tone at 1/4 of the stream
+    rate, replayed at 0.37 of the largest rate, equals the continuous tone at
+    each sample's phase, up to one complex gain (the kernel's passband response
+    at that frequency, within 0.05 dB), to within 12 LSB: the linear step's
+    own error A*(2*pi*f/32)**2/8 = 6.9 LSB at f = 1/4 word^-1 plus the words',
+    U's and the step's roundings. Holding the words is off by thousands."""
+    L = 64
+    amp = 0.7 * STREAM.max
+    k = np.arange(L)
+    tone = amp * np.exp(2j * np.pi * 16 * k / L)           # 16 cycles in 64 words: f = rate/4
+    words = pack_iq(np.round(tone.real), np.round(tone.imag))
+    inc = int(0.37 * FIR_MAX_INCREMENT)
+    n = np.arange(200_000, dtype=np.int64)
+    ph = (n * inc) % (L << PHASE_FRAC_BITS)
+    exact = amp * np.exp(2j * np.pi * 16 * (ph / 2.0 ** PHASE_FRAC_BITS) / L)
+    for mode, bound in (("fir", 12.0), ("hold", None)):
+        wi, wq = dp.stream_words(mode, words, L, ph)
+        got = wi + 1j * wq
+        gain = np.vdot(exact, got) / np.vdot(exact, exact)
+        err = np.abs(got - gain * exact).max()
+        if bound is None:
+            assert err > 5000, f"{mode}: {err}"
+        else:
+            assert abs(20 * np.log10(abs(gain))) < 0.05, f"{mode}: passband gain {abs(gain)}"
+            assert err < bound, f"{mode}: max error {err:.2f} LSB"
+
+
+def test_fir_table_passes_dc():
+    """Every phase of the kernel has unit gain at DC: constant words give U
+    equal to them, exactly, at every phase."""
+    for c in (20000, -32768, 32767, 1):
+        u = dp.fir_table(np.full(40, c), np.full(40, -c))
+        assert (u[0] == c).all() and (u[1] == min(-c, 32767)).all()      # 32768 saturates
