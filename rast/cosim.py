@@ -6,10 +6,18 @@ config, drives ``--seconds`` of sampled radar pulses through it under cocotb
 output with the bit-exact model, and writes to ``--out``:
 
 * ``spectrogram.png``: the micro-Doppler spectrogram from the RTL's samples
-  beside the model's, one row per range gate;
+  beside the model's, one row per range gate, over the whole Doppler band
+  ±PRF/2 (``--zoom HZ``: only ±HZ);
 * ``report.txt`` and ``report.json``: samples compared, mismatches, run time,
-  simulated samples per second, each windmill's maximum Doppler;
+  simulated samples per second, each windmill's maximum Doppler, the PRF
+  (``prf_hz``), the gates' ranges (``gates_km``) and the SFDR of the RTL's
+  samples (``rast.model.sfdr``) per gate (``sfdr``) and the worst (``sfdr_db``);
+* ``gates.npy``: the RTL's output at each gate's sample, complex128 of shape
+  (pulses, gates);
 * ``e2e.npz``: the per-pulse samples of RTL and model.
+
+The config is checked first: a bad one is reported with exit status 2 and
+no output folder is created.
 
 Exit status 0 when every sample matched (and, with ``--check-doppler``, every
 windmill's maximum Doppler is within one bin of the physics), 1 otherwise.
@@ -39,51 +47,88 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="CPI overlap of the spectrogram frames (default 0.9)")
     p.add_argument("--check-doppler", action="store_true",
                    help="also fail unless every windmill's maximum Doppler is seen and within one bin")
-    p.add_argument("--waves", action="store_true", help="dump an FST waveform (large for long runs)")
+    p.add_argument("--zoom", type=_positive_hz, default=None, metavar="HZ",
+                   help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
+    p.add_argument("--dynamic-range", type=float, default=90.0,
+                   help="colour scale depth of the spectrogram in dB (default 90)")
+    p.add_argument("--waves", action="store_true",
+                   help="dump a waveform: VCD with Verilator, FST with Icarus (large for long runs)")
 
 
-def _png(out: Path, e, data, overlap: float) -> None:
+def _positive_hz(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive frequency in Hz, not {text}")
+    return value
+
+
+def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,
+         dynamic_range_db: float = 90.0, sfdr: list | None = None) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
+    from rast.model.turbine import max_doppler_hz
     times, dopp = data["times_s"], data["doppler_hz"]
+    half_bin = (dopp[1] - dopp[0]) / 2 if dopp.size > 1 else 0.5
+    band = (dopp[0] - half_bin, dopp[-1] + half_bin)
     n = len(e.gates)
     fig, axes = plt.subplots(n, 2, figsize=(12, 3.4 * n + 0.6), squeeze=False, layout="constrained")
     ref = max(float(data[f"power_rtl_{g}"].max()) for g in range(n))
     for g, (off, rk, members) in enumerate(e.gates):
+        gate_sfdr = sfdr[g]["sfdr_db"] if sfdr and g < len(sfdr) else None
         for col, key, title in ((0, "rtl", "RTL (generated Verilog)"), (1, "model", "bit-exact model")):
             ax = axes[g, col]
             p = data[f"power_{key}_{g}"] - ref
-            im = ax.pcolormesh(times, dopp, p.T, shading="nearest", vmin=-60, vmax=0, cmap="viridis")
+            im = ax.pcolormesh(times, dopp, p.T, shading="nearest", vmin=-dynamic_range_db, vmax=0,
+                               cmap="viridis")
             names = ", ".join(e.farm.windmills[i].name for i in members)
-            ax.set_title(f"{title}: {rk:g} km ({names})", fontsize=9)
+            head = f"{title}: {rk:g} km ({names})"
+            if col == 0 and gate_sfdr is not None:
+                head += f" — SFDR {gate_sfdr:.1f} dB"
+            ax.set_title(head, fontsize=9)
             ax.set_xlabel("time (s)")
-            from rast.model.turbine import max_doppler_hz
-            lim = 1.4 * max(max_doppler_hz(e.farm.windmills[i], e.farm.radar.wavelength_m) for i in members)
+            lim = max(max_doppler_hz(e.farm.windmills[i], e.farm.radar.wavelength_m) for i in members)
             if lim > 0:
-                ax.set_ylim(max(-lim, dopp[0]), min(lim, dopp[-1]))
+                for sign in (1, -1):
+                    ax.axhline(sign * lim, color="#ff5a5f", linestyle="--", linewidth=0.8)
+            ax.set_ylim(*band)
+            if zoom_hz is not None:
+                ax.set_ylim(max(-zoom_hz, band[0]), min(zoom_hz, band[1]))
             ax.set_ylabel("Doppler (Hz)")
     fig.colorbar(im, ax=axes.ravel().tolist(), label="power (dB rel. peak)")
-    fig.suptitle(f"rast cosim {Path(e.config).name}: {e.pulse.n_pulses} pulses, CPI "
-                 f"{e.farm.radar.cpi_ms:g} ms, overlap {overlap:g}", fontsize=10)
+    fig.suptitle(f"rast cosim {Path(e.config).name}: {e.pulse.n_pulses} pulses, PRF "
+                 f"{e.farm.radar.prf_hz:g} Hz, CPI {e.farm.radar.cpi_ms:g} ms, overlap {overlap:g}; "
+                 f"dashed: ±max Doppler", fontsize=10)
     tmp = out.with_suffix(".tmp.png")
     fig.savefig(tmp, dpi=100)
     plt.close(fig)
     tmp.replace(out)
 
 
+def _db(x) -> str:
+    return "no line outside the band" if x is None else f"{x:.1f} dB"
+
+
 def run(args) -> int:
     import numpy as np
+    from rast.model.config import ConfigError, load_config
     from rast.sim import runner
     from rast.sim.e2e import prepare
     from rast.sim.top import top_sources
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        load_config(args.config)            # before anything is created
+    except ConfigError as error:
+        print(f"rast cosim: {error}", file=sys.stderr)
+        return 2
     config = str(Path(args.config).resolve())
     if args.simulator == "icarus" and "icarus" not in runner.available_simulators():
         print("rast cosim: Icarus Verilog (iverilog) is not installed", file=sys.stderr)
         return 2
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
     e = prepare(config, args.seconds, channels=args.channels)
     c = e.scenario.contract
@@ -108,9 +153,17 @@ def run(args) -> int:
     wall = time.monotonic() - t0
     rep_path = run_dir / "e2e.json"
     rep = json.loads(rep_path.read_text()) if rep_path.exists() else {}
-    if (run_dir / "e2e.npz").exists() and rep.get("doppler"):
+    written = []
+    if (run_dir / "e2e.npz").exists():
         shutil.copy(run_dir / "e2e.npz", out / "e2e.npz")
-        _png(out / "spectrogram.png", e, np.load(run_dir / "e2e.npz"), args.overlap)
+        data = np.load(out / "e2e.npz")
+        # one row per pulse, one column per range gate: the RTL's output at each gate's sample
+        np.save(out / "gates.npy", np.ascontiguousarray(data["rtl"].T, dtype=np.complex128))
+        written += ["e2e.npz", "gates.npy"]
+        if rep.get("doppler"):
+            _png(out / "spectrogram.png", e, data, args.overlap, zoom_hz=args.zoom,
+                 dynamic_range_db=args.dynamic_range, sfdr=rep.get("sfdr"))
+            written.append("spectrogram.png")
     lines = [f"rast cosim {config}",
              f"simulator           {args.simulator}",
              f"radar time          {args.seconds:g} s ({e.pulse.n_pulses} pulses)",
@@ -123,6 +176,18 @@ def run(args) -> int:
                   f"{rep['samples_per_s'] / 1e6:.2f} M simulated samples/s",
                   f"model run time      {rep['model_s']:.1f} s",
                   f"spectrograms equal  {rep['spectrograms_equal'] if rep['doppler'] else 'n/a (less than one CPI)'}"]
+        if rep.get("sfdr"):
+            lines.append(f"SFDR of the RTL's samples over ±{e.farm.radar.prf_hz / 2:g} Hz outside each gate's "
+                         f"±max Doppler + 6 bins (worst of {rep['sfdr'][0]['cpis']} CPI(s)):")
+            for x in rep["sfdr"]:
+                lines.append(f"  gate {x['range_km']:g} km ({', '.join(x['windmills'])}): {_db(x['sfdr_db'])}, "
+                             f"highest spur {x['spur_hz']:+.0f} Hz in CPI {x['cpi']}")
+            w = rep["sfdr"][rep["sfdr_worst_gate"]]
+            lines.append(f"worst SFDR          {_db(rep['sfdr_db'])} (gate {w['range_km']:g} km)")
+        elif rep.get("sfdr_error"):
+            lines.append(f"SFDR                not measured: {rep['sfdr_error']}")
+        else:
+            lines.append("SFDR                n/a (less than one CPI)")
         for d in rep["doppler"]:
             state = ("ok" if d["ok"] else "OFF BY MORE THAN ONE BIN") if d["reached"] else \
                 "its peak is not inside this run"
@@ -133,10 +198,13 @@ def run(args) -> int:
         lines += ["", "FAILED:", failure]
     text = "\n".join(lines) + "\n"
     (out / "report.txt").write_text(text)
-    (out / "report.json").write_text(json.dumps(dict(rep, total_wall_s=wall, failure=failure),
+    gates_km = [rk for _, rk, _ in e.gates]
+    (out / "report.json").write_text(json.dumps(dict(rep, prf_hz=e.farm.radar.prf_hz, gates_km=gates_km,
+                                                     sfdr_db=rep.get("sfdr_db"), sfdr=rep.get("sfdr", []),
+                                                     total_wall_s=wall, failure=failure),
                                                 indent=2, default=float))
     print(text)
-    print(f"wrote {out.resolve()}/spectrogram.png, report.txt, report.json")
+    print(f"wrote {out.resolve()}/{', '.join(written + ['report.txt', 'report.json'])}")
     return 1 if failure else 0
 
 

@@ -31,7 +31,8 @@ from rast.model.regmap import manifest_to_register_writes
 from .bulk import MAX_CAP, BulkJob
 from .scenario import Scenario
 
-__all__ = ["E2E", "prepare", "contract_for", "receiver", "doppler_check", "physics_doppler_track"]
+__all__ = ["E2E", "prepare", "contract_for", "receiver", "doppler_check", "physics_doppler_track",
+           "gate_windmills", "gate_sfdr"]
 
 
 @dataclass
@@ -115,6 +116,44 @@ def receiver(e: E2E, index: np.ndarray, i: np.ndarray, q: np.ndarray) -> np.ndar
         sel = ok & (off == o)
         out[g, pulse[sel]] = i[sel] + 1j * q[sel]
     return out
+
+
+def gate_windmills(e: E2E, g: int) -> list[int]:
+    """Windmills whose echo is being received at gate ``g``'s sample (eq. 2.3):
+    those of the gate and any other whose delayed pulse covers its offset."""
+    off = e.gates[g][0]
+    active = e.pulse.pulse_samples
+    inside = {e.farm.windmills.index(s.windmill) for s in e.streams.streams
+              if s.delay_samples <= off < s.delay_samples + active}
+    return sorted(inside | set(e.gates[g][2]))
+
+
+def gate_sfdr(e: E2E, samples: np.ndarray) -> dict:
+    """SFDR (:mod:`rast.model.sfdr`) of per-pulse samples of shape (gates, pulses), per gate and the worst.
+
+    Each gate excludes the largest maximum Doppler of the windmills received at
+    its sample. Returns ``{}`` with less than one CPI of pulses, and
+    ``sfdr_db: None`` with the reason in ``sfdr_error`` when the turbines'
+    band leaves nothing to measure; an SFDR with no line at all outside the
+    band (+inf) is reported as ``None`` too.
+    """
+    from rast.model.radar import RangeBin
+    from rast.model.sfdr import farm_sfdr
+    r = e.farm.radar
+    if samples.shape[1] < int(round(r.cpi_ms * 1e-3 * r.prf_hz)):
+        return {}
+    bins = [RangeBin(rk, tuple(gate_windmills(e, g))) for g, (_, rk, _) in enumerate(e.gates)]
+    try:
+        res = farm_sfdr(e.farm, samples, bins)
+    except ValueError as error:
+        return dict(sfdr_db=None, sfdr_error=str(error), sfdr=[])
+    finite = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731
+    per = [dict(gate=g, offset=e.gates[g][0], range_km=b.range_km, sfdr_db=finite(x.sfdr_db),
+                spur_hz=x.spur_hz, cpi=x.cpi_index, cpis=int(x.per_cpi_db.size),
+                windmills=[e.farm.windmills[i].name for i in b.members])
+           for g, (b, x) in enumerate(zip(bins, res))]
+    k = min(range(len(res)), key=lambda i: res[i].sfdr_db)
+    return dict(sfdr_db=finite(res[k].sfdr_db), sfdr_worst_gate=k, sfdr=per)
 
 
 def physics_doppler_track(windmill, wavelength_m: float, t_s: np.ndarray) -> np.ndarray:

@@ -2,7 +2,8 @@
 
 Parameters (``RAST_TB_PARAMS``): ``config``, ``seconds``, optional
 ``channels``, ``overlap``. Writes ``e2e.npz`` (per-pulse samples of RTL and
-model, spectrograms) and ``e2e.json`` (figures and checks) to the run
+model, spectrograms) and ``e2e.json`` (figures and checks, the PRF, the
+gates' ranges and the SFDR of the RTL's samples per gate) to the run
 directory; fails on the first mismatching sample, on spectrograms that are
 not identical, or on a windmill whose maximum Doppler in the RTL spectrogram
 is more than one Doppler bin from the physics.
@@ -17,7 +18,7 @@ import numpy as np
 
 from rast.model.radar import spectrogram
 from rast.sim import bulk
-from rast.sim.e2e import doppler_check, prepare, receiver, save_json
+from rast.sim.e2e import doppler_check, gate_sfdr, prepare, receiver, save_json
 from rast.sim.scenario import model_outputs
 from rast.sim.tb_top import check_bulk_run
 from rast.sim.testbench import BulkBench, Scoreboard, params, run_dir
@@ -60,10 +61,11 @@ async def e2e(dut):
         checks, extra = [], {}
     np.savez_compressed(d / "e2e.npz", rtl=rtl, model=mdl, gates=np.array([g[0] for g in e.gates]), **extra)
     report = dict(rep, config=e.config, seconds=p["seconds"], info=e.info, overlap=overlap,
-                  prepare_s=t_prep, model_s=t_model, rtl_wall_s=summary["wall_s"],
+                  prepare_s=t_prep, model_s=t_model, rtl_wall_s=summary["wall_s"], prf_hz=r.prf_hz,
+                  gates_km=[rk for _, rk, _ in e.gates],
                   gates=[dict(offset=o, range_km=rk, windmills=[e.farm.windmills[i].name for i in m])
                          for o, rk, m in e.gates],
-                  doppler=checks, spectrograms_equal=bool(checks) or None)
+                  doppler=checks, spectrograms_equal=bool(checks) or None, **gate_sfdr(e, rtl))
     save_json(d / "e2e.json", report)
     for c in checks:
         cocotb.log.info("%s: max Doppler RTL %.1f Hz, physics %.1f Hz (bin %.1f Hz) %s", c["windmill"],
