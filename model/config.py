@@ -136,6 +136,7 @@ class Farm:
     ram_depth: int | None = None        # stream words per channel bank of the target gateware; None: no limit
     stream_oversampling: float = 4.0    # stream rate ≥ this × max Doppler
     output_gain_db: float = 0.0         # level of the loudest windmill's peak
+    interpolation: str = "fir"          # the replay block's stream interpolation: fir, linear or hold
 
     @property
     def sample_rate_hz(self) -> float:
@@ -146,7 +147,9 @@ class Farm:
 # Parsing
 
 _RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
-_FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate"} | _RADAR_KEYS
+_FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate",
+              "interpolation"} | _RADAR_KEYS
+_INTERPOLATIONS = ("fir", "linear", "hold")
 _WINDMILL_KEYS = {
     "name", "range", "num_blades", "rpm", "rotor_angle", "start_angle", "num_rcs",
     "radius", "rsc", "rcs", "phase_start", "rsc_weighting",
@@ -381,6 +384,10 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
     if oversampling is not None and oversampling < 2:
         top.problem("stream_oversampling", f"must be at least 2 (Nyquist), not {oversampling!r}")
     output_gain_db = top.number("output_gain_db", 0.0, unit="dB")
+    interpolation = data.get("interpolation", "fir")
+    if interpolation not in _INTERPOLATIONS:
+        top.problem("interpolation", f"must be one of {', '.join(map(repr, _INTERPOLATIONS))}, "
+                    f"not {interpolation!r}")
     if prf and pulse_width and pulse_width * 1e-6 * prf >= 1:
         top.problem("pulse_width", f"({pulse_width} µs) must be shorter than the pulse "
                     f"repetition interval ({1e6 / prf:g} µs)")
@@ -422,7 +429,16 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
     if problems:
         raise ConfigError(problems, source)
     radar = Radar(frequency, prf, pulse_width, cpi)
-    return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db)
+    if interpolation == "fir":
+        for w in windmills:
+            if w.stream_rate == "rts":
+                problems.append(f"windmill '{w.name}': 'stream_rate' = \"rts\" plays one word per RTS "
+                                f"sample, which the FIR interpolator cannot follow: set "
+                                f"interpolation = \"hold\" (exact at that rate)")
+    if problems:
+        raise ConfigError(problems, source)
+    return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
+                interpolation)
 
 
 def load_config(path) -> Farm:

@@ -45,19 +45,22 @@ def pulse_times(prf_hz: float, duration_s: float) -> np.ndarray:
 
 
 def _replayed(farm_streams: FarmStreams, index: int, t_s: np.ndarray) -> np.ndarray:
-    """What the RTS plays for windmill ``index`` at times t: the held stream word × gain."""
+    """What the RTS plays for windmill ``index`` at times t: the stream word
+    at the multiplier, under the farm's interpolation, integer for integer as
+    the bit-exact model (``stream_words``), times the gain."""
+    from .datapath import stream_words
     s = next(s for s in farm_streams.streams if s.windmill is farm_streams.farm.windmills[index])
     n = np.round(t_s * farm_streams.farm.sample_rate_hz).astype(np.int64)
-    address = ((n * s.plan.phase_increment) >> fx.PHASE_FRAC_BITS) % s.plan.length
-    word = s.i[address] + 1j * s.q[address]
-    return word * (s.gain / (1 << (fx.STREAM_WIDTH - 1)))
+    phase = (n * s.plan.phase_increment) % (s.plan.length << fx.PHASE_FRAC_BITS)
+    wi, wq = stream_words(farm_streams.farm.interpolation, s.words, s.plan.length, phase)
+    return (wi + 1j * wq) * (s.gain / (1 << (fx.STREAM_WIDTH - 1)))
 
 
 def receive(farm: Farm, duration_s: float, farm_streams: FarmStreams | None = None):
     """Complex samples per pulse in every range bin.
 
     With ``farm_streams`` the samples are what the RTS replays (quantised,
-    held stream words and gains); without, the physics model itself.
+    interpolated stream words and gains); without, the physics model itself.
     Returns ``(pulse_times_s, bins, samples)`` with samples of shape (bins, pulses).
     """
     t = pulse_times(farm.radar.prf_hz, duration_s)

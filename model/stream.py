@@ -72,17 +72,38 @@ def stream_times(plan: StreamPlan, windmill: Windmill) -> np.ndarray:
     return np.arange(plan.length) * (windmill.period_s / plan.length)
 
 
-def quantise(period: np.ndarray, fmt: fx.Format = fx.STREAM):
+def _fir_peak(i: np.ndarray, q: np.ndarray) -> float:
+    """Largest |I| or |Q| of the FIR interpolator's intermediate values before
+    their saturation (in word units): the continuous signal between the words
+    may overshoot the words' own peak."""
+    c = np.array(fx.fir_coefficients(), dtype=np.int64)
+    L = len(i)
+    taps = (np.arange(L)[:, None] + fx.FIR_LEAD - np.arange(fx.FIR_TAPS)[None, :]) % L
+    acc = np.stack([i, q])[:, taps] @ c.T
+    return float(np.abs(fx.round_half_up(acc, fx.FIR_COEF_FRAC)).max())
+
+
+def quantise(period: np.ndarray, fmt: fx.Format = fx.STREAM, interpolation: str = "hold"):
     """Scale a complex period to the full signed word range and round.
 
+    With ``interpolation="fir"`` the scale leaves the headroom the
+    interpolator's overshoot between words needs, so that its intermediate
+    values never saturate (checked on the quantised words).
     Returns ``(i, q, scale, snr_db)``: integer I and Q (int64), the scale
     (word units per unit of modulation) and the quantisation SNR in dB.
     """
     peak = float(np.max(np.maximum(np.abs(period.real), np.abs(period.imag)))) if period.size else 0.0
     scale = fmt.max / peak if peak > 0 else 1.0
-    scaled = period * scale
-    i = np.clip(np.round(scaled.real), fmt.min, fmt.max).astype(np.int64)
-    q = np.clip(np.round(scaled.imag), fmt.min, fmt.max).astype(np.int64)
+    while True:
+        scaled = period * scale
+        i = np.clip(np.round(scaled.real), fmt.min, fmt.max).astype(np.int64)
+        q = np.clip(np.round(scaled.imag), fmt.min, fmt.max).astype(np.int64)
+        if interpolation != "fir" or peak == 0:
+            break
+        over = _fir_peak(i, q)
+        if over <= fmt.max:
+            break
+        scale *= (fmt.max - 1) / over
     error = (i - scaled.real) ** 2 + (q - scaled.imag) ** 2
     signal = np.abs(scaled) ** 2
     snr_db = 10 * np.log10(signal.sum() / error.sum()) if error.sum() > 0 else math.inf
@@ -166,6 +187,7 @@ class FarmStreams:
             "radar": {"prf_hz": farm.radar.prf_hz, "pulse_width_us": farm.radar.pulse_width_us,
                       "cpi_ms": farm.radar.cpi_ms},
             "ram_depth": farm.ram_depth,
+            "interpolation": farm.interpolation,
             "fixed_point": {"stream_width": fx.STREAM_WIDTH, "gain_width": fx.GAIN_WIDTH,
                             "gain_frac": fx.GAIN_FRAC, "phase_frac_bits": fx.PHASE_FRAC_BITS},
             "windmills": windmills,
@@ -186,6 +208,13 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True) -> FarmStrea
         if w.stream_rate not in (None, "rts") and w.stream_rate > farm.sample_rate_hz:
             problems.append(f"windmill '{w.name}': 'stream_rate' ({w.stream_rate:g} Hz) must not "
                             f"exceed the RTS sample rate ({farm.sample_rate_hz:g} Hz)")
+        elif farm.interpolation == "fir" and plan.phase_increment > fx.FIR_MAX_INCREMENT:
+            limit = fx.FIR_MAX_INCREMENT / (1 << fx.PHASE_FRAC_BITS) * farm.sample_rate_hz
+            problems.append(
+                f"windmill '{w.name}': its stream rate {plan.stream_rate_hz:.6g} Hz exceeds the FIR "
+                f"interpolator's {limit:.6g} Hz (sample rate / "
+                f"{(1 << fx.PHASE_FRAC_BITS) / fx.FIR_MAX_INCREMENT:.0f}): lower 'stream_rate' or "
+                f"'stream_oversampling', or raise 'sample_rate'")
         elif check_ram_depth and farm.ram_depth is not None and plan.length > farm.ram_depth:
             problems.append(
                 f"windmill '{w.name}': its stream needs {plan.length} words (one period of "
@@ -198,7 +227,7 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True) -> FarmStrea
     streams = []
     for w, plan in zip(farm.windmills, plans):
         period = modulation(w, stream_times(plan, w), farm.radar.wavelength_m)
-        i, q, scale, snr = quantise(period)
+        i, q, scale, snr = quantise(period, interpolation=farm.interpolation)
         streams.append(WindmillStream(
             w, plan, period, i, q, scale, snr,
             delay_samples=delay_samples(w.range_km, farm.sample_rate_hz),
