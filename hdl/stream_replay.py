@@ -149,11 +149,11 @@ class StreamReplay(wiring.Component):
                          ram.w_en.eq(self.wr_en)]
 
         fir = self._interpolation == "fir"
-        refill = Signal(range(self.refill_samples + 1), init=self.refill_samples)
-        refilling = Signal()
-        m.d.comb += refilling.eq(refill != 0)
         if fir:
             # The phase is held while the FIR's registers are refilled.
+            refill = Signal(range(self.refill_samples + 1), init=self.refill_samples)
+            refilling = Signal()
+            m.d.comb += refilling.eq(refill != 0)
             en = Signal()
             m.d.comb += en.eq(self.en & ~refilling)
         idx = self.index
@@ -332,11 +332,9 @@ class StreamReplay(wiring.Component):
             m.d.comb += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
             lo, hi = -(1 << (W - 1)), (1 << (W - 1)) - 1
             sat = Mux(rounded > hi, hi, Mux(rounded < lo, lo, rounded))
-            with m.If(en & fl[5].valid & fl[5].last):
-                with m.Switch(fl[5].dest):
-                    for k in range(3):
-                        with m.Case(k):
-                            m.d.sync += getattr(u[k], part).eq(sat)
+            for k in range(3):
+                with m.If(en & fl[5].valid & fl[5].last & (fl[5].dest == k)):
+                    m.d.sync += getattr(u[k], part).eq(sat)
 
         # Linear step between U[J] and U[J+1]: difference, product, sum.
         f = Signal(INTERP_FRAC_BITS)

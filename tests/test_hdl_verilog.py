@@ -11,8 +11,9 @@ from rast.model.fixedpoint import pack_iq
 @pytest.mark.parametrize("args", [
     ["--channels", "1", "--stream-depth", "16", "--max-delay", "14", "--max-increment", "0"],
     ["--channels", "3", "--stream-depth", "64", "--max-delay", "62", "--max-increment", "14",
-     "--interpolate", "--cmult-form", "3mult"],
-    ["--channels", "16", "--stream-depth", "16", "--max-delay", "30", "--max-increment", "6"],
+     "--interpolation", "linear", "--cmult-form", "3mult"],
+    ["--channels", "16", "--stream-depth", "16", "--max-delay", "30", "--max-increment", "6",
+     "--interpolation", "hold"],
 ])
 def test_verilog_lints_clean(tmp_path, args):
     out = tmp_path / "replay.v"
