@@ -27,6 +27,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_streams.py
+	$(BIN)/python bench/bench_interpolation.py
 
 bench-cosim: $(STAMP)
 	$(BIN)/python bench/bench_cosim.py

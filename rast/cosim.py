@@ -43,6 +43,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--channels", type=int, default=None,
                    help="channels of the replay block (default: one per windmill)")
+    p.add_argument("--noise-rms", type=float, default=0.0, metavar="FS",
+                   help="receiver noise inside each pulse, RMS as a fraction of full scale (default 0: "
+                        "the SFDR then measures the replay itself)")
     p.add_argument("--overlap", type=float, default=0.9,
                    help="CPI overlap of the spectrogram frames (default 0.9)")
     p.add_argument("--check-doppler", action="store_true",
@@ -130,7 +133,7 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
-    e = prepare(config, args.seconds, channels=args.channels)
+    e = prepare(config, args.seconds, channels=args.channels, noise_rms=args.noise_rms)
     c = e.scenario.contract
     print(f"rast cosim: {Path(config).name}: {e.pulse.n_pulses} pulses, {e.info['samples']:,} RTS samples "
           f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s), stream depth {c.stream_depth}, "
@@ -142,6 +145,7 @@ def run(args) -> int:
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
     params = dict(config=config, seconds=args.seconds, channels=args.channels, overlap=args.overlap,
+                  noise_rms=args.noise_rms,
                   require_peaks=bool(args.check_doppler))
     failure = None
     try:

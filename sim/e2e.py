@@ -63,7 +63,7 @@ def contract_for(farm_streams, channels: int | None = None) -> ReplayContract:
 
 
 def prepare(config, seconds: float = 1.0, *, channels: int | None = None, amplitude: float = 0.4,
-            noise_rms: float = 0.002, seed: int = 1, gap_thresh: int = 4, stall_thresh: int = 4) -> E2E:
+            noise_rms: float = 0.0, seed: int = 1, gap_thresh: int = 4, stall_thresh: int = 4) -> E2E:
     from rast.model.config import load_config
     from rast.model.stream import build_farm_streams
     farm = load_config(config)

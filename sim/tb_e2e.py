@@ -29,7 +29,7 @@ async def e2e(dut):
     p = params()
     d = run_dir()
     t0 = time.monotonic()
-    e = prepare(p["config"], p["seconds"], channels=p.get("channels"))
+    e = prepare(p["config"], p["seconds"], channels=p.get("channels"), noise_rms=p.get("noise_rms", 0.0))
     t_prep = time.monotonic() - t0
     cocotb.log.info("e2e %s: %s", e.scenario.name, e.info)
     summary = await BulkBench(dut).run(e.scenario.job, progress=True)

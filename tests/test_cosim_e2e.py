@@ -26,14 +26,15 @@ from rast.sim.top import top_sources
 CONFIG = Path(__file__).resolve().parent.parent / "examples" / "two_windmills.toml"
 
 
-def run_e2e(simulator, seconds, name, require_peaks=True):
-    e = prepare(CONFIG, seconds)
+def run_e2e(simulator, seconds, name, require_peaks=True, noise_rms=0.0):
+    e = prepare(CONFIG, seconds, noise_rms=noise_rms)
     c = e.scenario.contract
     sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
                                max_increment=c.max_increment)
     run_dir = cocotb_run(sources, top, "rast.sim.tb_e2e", "e2e", simulator=simulator, public_all=False,
                          label=f"e2e{c.channels}", name=name,
-                         tb_params=dict(config=str(CONFIG), seconds=seconds, require_peaks=require_peaks))
+                         tb_params=dict(config=str(CONFIG), seconds=seconds, require_peaks=require_peaks,
+                                        noise_rms=noise_rms))
     return json.loads((run_dir / "e2e.json").read_text())
 
 
@@ -58,7 +59,7 @@ def test_two_windmills_icarus(simulator):
     # Icarus runs ~40x slower than Verilator here (20 k samples/s): one CPI
     # (0.1 s, 2 M samples) checks every sample and the spectrogram's identity;
     # wm25's peak (t = 0.6 s) is out of reach, wm15's (t = 0) is checked.
-    rep = run_e2e(simulator, 0.1, "two_windmills-0.1s", require_peaks=False)
+    rep = run_e2e(simulator, 0.1, "two_windmills-0.1s", require_peaks=False, noise_rms=0.002)
     assert rep["mismatches"] == 0 and rep["spectrograms_equal"]
     doppler = {d["windmill"]: d for d in rep["doppler"]}
     assert doppler["wm15"]["reached"] and doppler["wm15"]["ok"]
