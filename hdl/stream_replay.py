@@ -263,6 +263,9 @@ class StreamReplay(wiring.Component):
         # Next U to compute: word index ``tw`` and phase ``tp`` (target J = tw*2**PB + tp).
         tw = Signal(range(D))
         tp = Signal(PB)
+        # ``(tw + FIR_LEAD) mod L``, kept beside ``tw`` (no adder and compare
+        # at the start of a job): the word of the job's first tap.
+        lead = Signal(range(D), init=FIR_LEAD)
         jobs = Signal(range(4), init=3)          # U values still to compute
         seq = Signal(range(3))                   # destination of the next job (0, 1, then 2)
         issuing = Signal()
@@ -278,15 +281,13 @@ class StreamReplay(wiring.Component):
             with m.If(j_step):
                 m.d.sync += [u[0].eq(u[1]), u[1].eq(u[2])]
         with m.If(start):
-            lead = Signal(range(D + FIR_LEAD))
-            m.d.comb += lead.eq(tw + FIR_LEAD)
-            m.d.sync += [issuing.eq(1), tap.eq(0), cphase.eq(tp), dest.eq(seq),
-                         raddr.eq(Mux(lead > len_m1, lead - len_m1 - 1, lead)),
+            m.d.sync += [issuing.eq(1), tap.eq(0), cphase.eq(tp), dest.eq(seq), raddr.eq(lead),
                          tp.eq(tp + 1)]
             with m.If(seq != 2):
                 m.d.sync += seq.eq(seq + 1)
             with m.If(tp == (1 << PB) - 1):
-                m.d.sync += tw.eq(Mux(tw == len_m1, 0, tw + 1))
+                m.d.sync += [tw.eq(Mux(tw == len_m1, 0, tw + 1)),
+                             lead.eq(Mux(lead == len_m1, 0, lead + 1))]
         with m.Elif(en & issuing):
             m.d.sync += [tap.eq(tap + 1), raddr.eq(Mux(raddr == 0, len_m1, raddr - 1))]
             with m.If(tap == T - 1):
@@ -308,7 +309,7 @@ class StreamReplay(wiring.Component):
         m.d.comb += [issue.eq(issuing), ram.r_en.eq(en), ram.r_addr.eq(Cat(raddr, bank)),
                      rom_rd.en.eq(en), rom_rd.addr.eq(ca[-1])]
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
-        fl = [Signal(flags, name=f"mac_flags{k}") for k in range(6)]     # fl[k]: k samples after issue
+        fl = [Signal(flags, name=f"mac_flags{k}") for k in range(8)]     # fl[k]: k samples after issue
         m.d.comb += [fl[0].valid.eq(issue), fl[0].first.eq(tap == 0), fl[0].last.eq(tap == T - 1),
                      fl[0].dest.eq(dest)]
         with m.If(en):
@@ -316,24 +317,28 @@ class StreamReplay(wiring.Component):
             m.d.sync += [fl[k].eq(fl[k - 1]) for k in range(1, len(fl))]
         with m.If(swapping):
             # A switch cancels the jobs in flight and starts the refill.
-            m.d.sync += [issuing.eq(0), jobs.eq(3), seq.eq(0), tw.eq(0), tp.eq(0)]
+            m.d.sync += [issuing.eq(0), jobs.eq(3), seq.eq(0), tw.eq(0), tp.eq(0), lead.eq(FIR_LEAD)]
             m.d.sync += [fl[k].valid.eq(0) for k in range(1, len(fl))]
 
         word = Signal(IQ(W))
         m.d.comb += word.eq(ram.r_data)
+        # Timing: the word and the coefficient (a block RAM without output
+        # register) enter the multiplier's input registers; the rounding and
+        # the saturation each have a register stage of their own.
         for part in ("re", "im"):
-            mul = RegisteredMultiplier(W, FIR_COEF_WIDTH)
+            mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
             m.submodules[f"fir_mul_{part}"] = mul
             m.d.comb += [mul.en.eq(en), mul.a.eq(getattr(word, part)), mul.b.eq(rom_rd.data)]
             acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}")
-            with m.If(en & fl[4].valid):
-                m.d.sync += acc.eq(Mux(fl[4].first, mul.o, acc + mul.o))
+            with m.If(en & fl[5].valid):
+                m.d.sync += acc.eq(Mux(fl[5].first, mul.o, acc + mul.o))
             rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}")
-            m.d.comb += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
+            with m.If(en):
+                m.d.sync += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
             lo, hi = -(1 << (W - 1)), (1 << (W - 1)) - 1
             sat = Mux(rounded > hi, hi, Mux(rounded < lo, lo, rounded))
             for k in range(3):
-                with m.If(en & fl[5].valid & fl[5].last & (fl[5].dest == k)):
+                with m.If(en & fl[7].valid & fl[7].last & (fl[7].dest == k)):
                     m.d.sync += getattr(u[k], part).eq(sat)
 
         # Linear step between U[J] and U[J+1]: difference, product, sum.
@@ -347,13 +352,15 @@ class StreamReplay(wiring.Component):
         for part in ("re", "im"):
             diff = Signal(signed(W + 1), name=f"lin_diff_{part}")
             a0 = Signal(signed(W), name=f"lin_a0_{part}")
-            a1 = Signal(signed(W), name=f"lin_a1_{part}")
+            # U[J]*2**16 + 2**15: the rounding constant rides with U[J], so the
+            # sum and the rounding are one adder.
+            a1 = Signal(signed(W + INTERP_FRAC_BITS + 1), name=f"lin_a1_{part}")
             mul = RegisteredMultiplier(W + 1, INTERP_FRAC_BITS + 1)
             m.submodules[f"lin_mul_{part}"] = mul
             m.d.comb += [mul.en.eq(en), mul.a.eq(diff), mul.b.eq(f0)]
             with m.If(en):
                 m.d.sync += [diff.eq(getattr(u[1], part) - getattr(u[0], part)),
-                             a0.eq(getattr(u[0], part)), a1.eq(a0),
-                             getattr(out, part).eq(Mux(mute[1], 0, a1 + (
-                                 (mul.o + (1 << (INTERP_FRAC_BITS - 1))) >> INTERP_FRAC_BITS)))]
+                             a0.eq(getattr(u[0], part)),
+                             a1.eq((a0 << INTERP_FRAC_BITS) + (1 << (INTERP_FRAC_BITS - 1))),
+                             getattr(out, part).eq(Mux(mute[1], 0, (a1 + mul.o) >> INTERP_FRAC_BITS))]
         m.d.comb += self.o.eq(out)

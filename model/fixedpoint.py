@@ -149,7 +149,7 @@ FIR_COEF_WIDTH = 18
 FIR_COEF_FRAC = 16
 #: Accumulator of one U value: 16 x 18 bit products, FIR_TAPS of them.
 FIR_ACC_WIDTH = STREAM_WIDTH + FIR_COEF_WIDTH + (FIR_TAPS - 1).bit_length()
-#: Samples between two advances of J, at least: the serial MAC needs 17 from
+#: Samples between two advances of J, at least: the serial MAC needs 19 from
 #: an advance to the next U value in its register.
 FIR_MIN_SAMPLES_PER_STEP = 24
 #: Largest PHASE_INC of a FIR build (5592405: stream rate <= sample rate / 768).
