@@ -118,14 +118,30 @@ def make_platform(board="ulx3s-85f", *, device=None, package=None, speed=None, p
     elif isinstance(pinmap, dict):
         pm = dict(pinmap)
     else:
-        pm = json.loads(Path(pinmap).read_text())
+        try:
+            pm = json.loads(Path(pinmap).read_text(encoding="utf-8"))
+        except OSError as error:
+            raise ValueError(f"Cannot read the pin map {pinmap}: {error.strerror or error}") from None
+        except (UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise ValueError(f"The pin map {pinmap} is not valid JSON: {error}") from None
+    where = "Pin map" if isinstance(pinmap, dict) else f"Pin map {pinmap}"
+    if not isinstance(pm, dict):
+        raise ValueError(f"{where} must be a JSON object of signal names to balls")
     missing = [k for k in ("clk", "clk_mhz", "uart_rx", "uart_tx", "adc_data", "adc_clk",
                            "dac_data", "dac_clk", "dac_iq") if k not in pm]
     if missing:
-        raise ValueError(f"Pin map lacks {', '.join(missing)}")
+        raise ValueError(f"{where} lacks {', '.join(missing)}")
     for k in ("adc_data", "dac_data"):
-        if len(pm[k]) != 16:
-            raise ValueError(f"Pin map entry {k} must list 16 balls, not {len(pm[k])}")
+        if not (isinstance(pm[k], list) and len(pm[k]) == 16 and all(isinstance(b, str) for b in pm[k])):
+            raise ValueError(f"{where}: entry {k} must list 16 balls, not {pm[k]!r}")
+    for k in ("clk", "uart_rx", "uart_tx", "adc_clk", "dac_clk", "dac_iq", "io_type"):
+        if k in pm and not isinstance(pm[k], str):
+            raise ValueError(f"{where}: entry {k} must be a ball name, not {pm[k]!r}")
+    if not isinstance(pm.get("leds", []), list) or not all(isinstance(b, str) for b in pm.get("leds", [])):
+        raise ValueError(f"{where}: entry leds must list balls, not {pm['leds']!r}")
+    clk_mhz = pm["clk_mhz"]
+    if not (isinstance(clk_mhz, (int, float)) and not isinstance(clk_mhz, bool) and 0 < clk_mhz < 1000):
+        raise ValueError(f"{where}: clk_mhz must be the board clock in MHz, not {clk_mhz!r}")
     io_type = pm.get("io_type", "LVCMOS33")
     a = Attrs(IO_TYPE=io_type)
     resources = [

@@ -166,8 +166,8 @@ def max_doppler_hz(windmill: Windmill, wavelength_m: float) -> float:
 def modulation_reference(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
     """eq. 2.15–2.19 written as read, one blade and one scatterer at a time, all float64.
 
-    Slow and plain: the yardstick that :func:`modulation` is tested and
-    benchmarked against.
+    Slow and plain: the yardstick that :func:`modulation` is tested against
+    (the benchmark's baseline is a fair loop of its own, at the same precision).
     """
     t_s = np.asarray(t_s, dtype=float)
     total = np.zeros(t_s.shape, dtype=complex)

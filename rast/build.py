@@ -3,7 +3,9 @@
 ``rast build [--board ulx3s-85f] [--channels N] [--clock-mhz F] --out DIR``
 runs Yosys, nextpnr-ecp5 and ecppack (YoWASP builds from PyPI), writes
 ``DIR/rast_top.bit`` and ``DIR/report.json``, and exits 1 when the design
-misses timing at the requested clock.
+misses timing at the requested clock or a tool fails. Mistakes in the
+arguments (parameters, target, pin map, a clock the PLL cannot make, more
+channels than the device's block RAM holds) exit 2 before anything is built.
 """
 
 import json
@@ -15,7 +17,7 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(p):
     from rast.gateware.platforms import BOARDS
     g = p.add_argument_group("target")
-    g.add_argument("--board", default="ulx3s-85f", choices=sorted(BOARDS) + ["none"],
+    g.add_argument("--board", default=None, choices=sorted(BOARDS) + ["none"],
                    help="board definition (default ulx3s-85f); 'none' with --device for a plain ECP5")
     g.add_argument("--device", help="plain ECP5 device, e.g. LFE5U-85F (implies --board none)")
     g.add_argument("--package", default="BG381", help="plain device package (default BG381)")
@@ -29,7 +31,8 @@ def add_arguments(p):
     d.add_argument("--max-delay", type=int, default=4094, help="largest common delay (default 4094)")
     d.add_argument("--max-increment", type=int, default=1022,
                    help="largest delay increment of channels 1.. (default 1022)")
-    d.add_argument("--interpolate", action="store_true", help="linear interpolation between stream words")
+    d.add_argument("--interpolation", choices=("fir", "linear", "hold"), default="fir",
+                   help="stream interpolation: fir (default, images below -70 dB), linear, or hold (exact for one word per sample)")
     d.add_argument("--cmult-form", default="4mult", choices=["4mult", "3mult"])
     p.add_argument("--seed", type=int, default=1, help="nextpnr placer seed (default 1)")
     p.add_argument("--out", required=True, help="output folder (bitstream, logs, report.json)")
@@ -39,21 +42,30 @@ def add_arguments(p):
 
 
 def run(args) -> int:
-    from rast.gateware.build import BuildConfig, BuildError, build
-    board = None if (args.device or args.board == "none") else args.board
-    if board is None and not args.device:
-        print("rast build: --board none needs --device", file=sys.stderr)
-        return 2
+    from rast.errors import UserError, check_output
+    from rast.gateware.build import BuildConfig, BuildError, build, check
+    if args.device and args.board not in (None, "none"):
+        raise UserError(f"--device {args.device} builds for a plain ECP5; leave out --board {args.board}")
+    if args.board == "none" and not args.device:
+        raise UserError("--board none needs --device")
+    if args.pinmap and not args.device:
+        raise UserError("--pinmap is for a plain device: give --device too")
+    board = None if args.device else (args.board or "ulx3s-85f")
     cfg = BuildConfig(board=board, device=args.device, package=args.package, speed=args.speed,
                       pinmap=args.pinmap, channels=args.channels, clock_mhz=args.clock_mhz,
                       baud=args.baud, stream_depth=args.stream_depth, max_delay=args.max_delay,
-                      max_increment=args.max_increment, interpolate=args.interpolate,
+                      max_increment=args.max_increment, interpolation=args.interpolation,
                       cmult_form=args.cmult_form, seed=args.seed)
     try:
+        check(cfg)          # everything that can be checked before a tool runs
+    except ValueError as error:
+        raise UserError(str(error)) from None
+    check_output(args.out, folder=True, option="--out")
+    try:
         rep = build(cfg, args.out, quiet=args.quiet)
-    except (BuildError, ValueError, TypeError) as e:
+    except BuildError as e:             # a tool failed: not a mistake in the arguments
         print(f"rast build: {e}", file=sys.stderr)
-        return 2
+        return 1
     t, r = rep["timing"], rep["resources"]
     for name, c in t["clocks"].items():
         ok = "met" if c["achieved_mhz"] >= c["constraint_mhz"] else "MISSED"

@@ -10,6 +10,7 @@ import tempfile
 from pathlib import Path
 
 from rast.model.config import ConfigError, load_config
+from rast.errors import UserError, check_output
 
 
 def _print_streams(farm_streams) -> None:
@@ -25,9 +26,13 @@ def cmd_stream(args) -> int:
     from rast.model.ramfiles import write_farm_files
     from rast.model.stream import build_farm_streams
 
+    check_output(args.out, folder=True, option="--out")
     farm = load_config(args.config)
     farm_streams = build_farm_streams(farm)
-    written = write_farm_files(farm_streams, args.out)
+    try:
+        written = write_farm_files(farm_streams, args.out)
+    except OSError as error:        # e.g. a full disk; nothing was moved into place
+        raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
     _print_streams(farm_streams)
     print(f"wrote {len(written)} files to {Path(args.out).resolve()}:")
     for name in sorted(written):
@@ -38,20 +43,32 @@ def cmd_stream(args) -> int:
 def cmd_preview(args) -> int:
     from rast.model.plot import save_preview
     from rast.model.radar import receive, spectrogram
+    from rast.model.sfdr import farm_sfdr
     from rast.model.stream import build_farm_streams
 
+    check_output(args.out, folder=False, option="--out")
     farm = load_config(args.config)
+    prf = farm.radar.prf_hz
+    pulses, cpi_pulses = round(args.seconds * prf), round(farm.radar.cpi_ms * 1e-3 * prf)
+    if pulses < max(2, cpi_pulses):
+        raise UserError(f"--seconds {args.seconds:g} gives {pulses} pulses at {prf:g} Hz, "
+                        f"less than one CPI of {farm.radar.cpi_ms:g} ms ({cpi_pulses} pulses)")
     farm_streams = build_farm_streams(farm) if args.replay else None
     t, bins, samples = receive(farm, args.seconds, farm_streams)
     cpi_s = farm.radar.cpi_ms * 1e-3
     spectra = [spectrogram(row, farm.radar.prf_hz, cpi_s, overlap=args.overlap) for row in samples]
+    try:
+        measured, unmeasured = farm_sfdr(farm, samples, bins), None
+    except ValueError as error:      # e.g. a maximum Doppler beyond PRF/2 leaves no band outside
+        measured, unmeasured = None, str(error)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     # Draw into a temporary file and move it into place: the PNG appears whole or not at all.
     fd, tmp = tempfile.mkstemp(suffix=".png", dir=out.parent)
     os.close(fd)
     try:
-        save_preview(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range)
+        save_preview(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range, zoom_hz=args.zoom,
+                     sfdr=measured)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)   # mkstemp made it private
@@ -62,8 +79,41 @@ def cmd_preview(args) -> int:
     res = spectra[0].resolution_hz
     print(f"{len(bins)} range bin(s), {t.size} pulses, {spectra[0].times_s.size} CPIs, "
           f"Doppler resolution {res:g} Hz{' (replayed stream words)' if args.replay else ''}")
+    if measured is None:
+        print(f"SFDR not measured: {unmeasured}")
+    else:
+        print(f"SFDR over the whole band ±{farm.radar.prf_hz / 2:g} Hz outside each bin's ±max Doppler "
+              f"+ 6 bins, worst of {measured[0].per_cpi_db.size} CPI(s), Blackman-Harris window:")
+        for b, r in zip(bins, measured):
+            print(f"  SFDR range bin {b.range_km:g} km: {r.sfdr_db:.1f} dB (highest spur {r.spur_hz:+.0f} Hz "
+                  f"in CPI {r.cpi_index})")
+        k = min(range(len(measured)), key=lambda i: measured[i].sfdr_db)
+        print(f"worst SFDR {measured[k].sfdr_db:.1f} dB (range bin {bins[k].range_km:g} km)")
     print(f"wrote {out.resolve()}")
     return 0
+
+
+def _positive_hz(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive frequency in Hz, not {text}")
+    return value
+
+
+def _number(what: str, low: float = 0.0, high: float = float("inf"), *, low_inclusive=False):
+    """An argparse type: a float in (low, high) ([low, high) with ``low_inclusive``)."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = float("nan")
+        if not ((low <= value if low_inclusive else low < value) and value < high):
+            raise argparse.ArgumentTypeError(f"must be {what}, not {text}")
+        return value
+    return parse
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -78,10 +128,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("preview", help="draw the micro-Doppler spectrogram the radar will see")
     p.add_argument("config", help="TOML config (one windmill or a farm)")
     p.add_argument("--out", required=True, help="PNG file to write")
-    p.add_argument("--seconds", type=float, default=10.0, help="radar time to simulate (default 10)")
-    p.add_argument("--overlap", type=float, default=0.0,
+    p.add_argument("--seconds", type=_number("a positive number of seconds"), default=10.0,
+                   help="radar time to simulate (default 10)")
+    p.add_argument("--overlap", type=_number("a fraction in [0, 1)", 0.0, 1.0, low_inclusive=True),
+                   default=0.0,
                    help="fraction of a CPI shared by consecutive frames (default 0, as a radar)")
-    p.add_argument("--dynamic-range", type=float, default=60.0, help="colour scale depth in dB")
+    p.add_argument("--dynamic-range", type=_number("a positive number of dB"), default=90.0,
+                   help="colour scale depth in dB (default 90: spurs down to the SFDR a replay should reach)")
+    p.add_argument("--zoom", type=_positive_hz, default=None, metavar="HZ",
+                   help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
     p.add_argument("--replay", action="store_true",
                    help="show the quantised stream words as the RTS replays them, not the physics")
     p.set_defaults(func=cmd_preview)
@@ -103,7 +158,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args) or 0
-    except ConfigError as error:
+    except (ConfigError, UserError) as error:     # user mistakes; anything else is a bug
         print(f"rast {args.command}: {error}", file=sys.stderr)
         return 2
 

@@ -6,17 +6,18 @@ stream into the inactive bank, switches banks, sets gains and delays, reads
 them back and prints the status (overflow flag, versions).
 """
 
-import json
+import os
 import sys
 import time
-from pathlib import Path
 
-from rast.model.fixedpoint import ReplayContract
+from rast.errors import UserError, manifest_streams, read_manifest
+from rast.model.fixedpoint import INTERPOLATIONS, ReplayContract
 from rast.model.hostproto import HostBridge, BRIDGE_ID, ProtocolError
 from rast.model.regmap import (ID_VALUE, register_map, manifest_to_register_writes,
                                CTRL_ENABLE)
 
-__all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_status", "LoadError"]
+__all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
+           "send_writes", "read_status", "LoadError"]
 
 _GLOBAL = register_map(ReplayContract(channels=1))
 
@@ -38,7 +39,8 @@ def read_contract(bridge: HostBridge) -> ReplayContract:
     c = ReplayContract(channels=cfg & 0xFF, stream_depth=bridge.read(a("STREAM_DEPTH")),
                        max_delay=bridge.read(a("MAX_DELAY")),
                        max_increment=bridge.read(a("MAX_INCREMENT")),
-                       interpolate=bool(cfg >> 8 & 1), cmult_form="3mult" if cfg >> 9 & 1 else "4mult")
+                       interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],
+                       cmult_form="3mult" if cfg >> 10 & 1 else "4mult")
     lat = bridge.read(a("LATENCY"))
     if lat != c.latency:
         raise LoadError(f"Bitstream latency {lat} differs from the model's {c.latency} for "
@@ -65,16 +67,41 @@ def expected_readback(writes, rmap):
     return exp
 
 
+def read_manifest_dir(manifest_dir, streams=True):
+    """``(manifest, stream words per channel or None)`` from a `rast stream` folder (or
+    its manifest.json); a missing or malformed file raises :class:`rast.errors.UserError`."""
+    manifest, path = read_manifest(manifest_dir)
+    return manifest, (manifest_streams(manifest, path.parent) if streams else None)
+
+
+def plan_writes(manifest, contract, words=None):
+    """The register writes of ``manifest`` for a block of ``contract``; a manifest
+    that does not fit raises :class:`rast.errors.UserError` (nothing is sent)."""
+    try:
+        return manifest_to_register_writes(manifest, contract, streams=words)
+    except ValueError as error:
+        raise UserError(f"the manifest does not fit the bitstream's replay block ({contract.channels} "
+                        f"channel(s), stream depth {contract.stream_depth}, maximum delay "
+                        f"{contract.max_delay}, maximum increment {contract.max_increment}, latency "
+                        f"{contract.latency}): {error}") from None
+
+
 def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress=None):
     """Write the manifest in ``manifest_dir`` into the block; verify by reading back.
 
-    Returns a dict of what was done. Raises :class:`LoadError` on a mismatch."""
-    manifest_dir = Path(manifest_dir)
-    manifest = json.loads((manifest_dir / "manifest.json").read_text())
+    Returns a dict of what was done. Raises :class:`rast.errors.UserError` for a
+    missing, malformed or unfitting manifest (before any write) and
+    :class:`LoadError` on a read-back mismatch."""
+    manifest, words = read_manifest_dir(manifest_dir, streams)
     contract = contract or read_contract(bridge)
+    writes = plan_writes(manifest, contract, words)
+    return send_writes(bridge, writes, contract, progress,
+                       channels=len(manifest["registers"]["channels"]))
+
+
+def send_writes(bridge, writes, contract, progress=None, *, channels=None):
+    """Send ``writes`` and read every written register back (:class:`LoadError` on a mismatch)."""
     rmap = register_map(contract)
-    writes = manifest_to_register_writes(manifest, contract,
-                                         stream_dir=manifest_dir if streams else None)
     t0 = time.monotonic()
     bridge.write_many(writes, progress)
     dt = time.monotonic() - t0
@@ -87,8 +114,7 @@ def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress
     if mismatches:
         raise LoadError("Read-back differs: " + "; ".join(mismatches))
     n_words = sum(1 for a, _ in writes if a == rmap.addr("STREAM_DATA"))
-    return {"writes": len(writes), "stream_words": n_words, "seconds": dt,
-            "channels": len(manifest["registers"]["channels"])}
+    return {"writes": len(writes), "stream_words": n_words, "seconds": dt, "channels": channels}
 
 
 def read_status(bridge, contract):
@@ -105,7 +131,7 @@ def read_status(bridge, contract):
 
 
 def add_arguments(p):
-    p.add_argument("manifest_dir", nargs="?", help="folder written by `rast stream` (manifest.json, *.hex)")
+    p.add_argument("manifest_dir", nargs="?", help="folder written by `rast stream` (manifest.json, *.hex), or its manifest.json")
     p.add_argument("--port", required=True, help="serial port of the board, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=int, default=1_000_000, help="bridge baud rate (default 1000000)")
     p.add_argument("--no-streams", action="store_true",
@@ -122,21 +148,35 @@ def _print_status(st):
 
 
 def run(args) -> int:
+    """Mistakes in the arguments or the manifest (also one that does not fit the
+    bitstream) and a port that cannot be opened raise :class:`rast.errors.UserError`
+    before anything is written to the board; a failing board or line exits 1."""
     import serial
     if not args.status and not args.manifest_dir:
-        print("rast load: give MANIFEST_DIR (or --status)", file=sys.stderr)
-        return 2
+        raise UserError("give MANIFEST_DIR (or --status)")
+    if args.baud <= 0:
+        raise UserError(f"--baud must be a positive number of bit/s, not {args.baud}")
+    manifest = words = None
+    if not args.status:
+        manifest, words = read_manifest_dir(args.manifest_dir, streams=not args.no_streams)
     try:
-        with serial.Serial(args.port, args.baud, timeout=1.0) as port:
+        port = serial.Serial(args.port, args.baud, timeout=1.0)
+    except (serial.SerialException, ValueError) as error:   # ValueError: a rate the port refuses
+        why = os.strerror(error.errno) if getattr(error, "errno", None) else str(error)
+        raise UserError(f"cannot open the serial port {args.port}: {why}") from None
+    try:
+        with port:
             bridge = HostBridge(port)
             bridge.resync(drain=port.reset_input_buffer)
             contract = read_contract(bridge)
             if not args.status:
+                writes = plan_writes(manifest, contract, words)
+
                 def progress(done, total):
                     if done == total or done % 2048 == 0:
                         print(f"\r  {done}/{total} writes", end="", flush=True)
-                res = load_manifest(bridge, args.manifest_dir, contract,
-                                    streams=not args.no_streams, progress=progress)
+                res = send_writes(bridge, writes, contract, progress,
+                                  channels=len(manifest["registers"]["channels"]))
                 print(f"\nloaded {res['channels']} windmill(s), {res['stream_words']} stream words "
                       f"in {res['seconds']:.1f} s; read-back matches")
             _print_status(read_status(bridge, contract))

@@ -1,11 +1,12 @@
 """`rast verilog`: Verilog of the top with a parameter header, Verilator lint clean."""
 
 import json
+import re
 
 import pytest
 
 from rast import verilog as rv
-from rast.model.fixedpoint import pack_iq
+from rast.model.fixedpoint import ReplayContract, pack_iq
 
 
 @pytest.mark.parametrize("args", [
@@ -35,19 +36,73 @@ def test_waivers_have_reasons():
     assert all(isinstance(w, str) and w.isupper() and len(why) > 20 for w, why in rv.VERILATOR_WAIVERS)
 
 
+def _modules(text):
+    """{module name: body} of a Verilog file (escaped names without the backslash)."""
+    return {m.group(1).lstrip("\\"): m.group(2) for m in
+            re.finditer(r"^module (\S+)\s*\(.*?\);\n(.*?)^endmodule", text, re.M | re.S)}
+
+
+def _literal(width, base, digits):
+    return int(digits.replace("_", ""), {"h": 16, "d": 10, "b": 2}[base]), int(width)
+
+
+def _reg_init(body, name):
+    """Initial value of ``reg [...] name = <width>'<base><digits>;`` in a module body."""
+    m = re.search(rf"^\s*reg (?:\[(\d+):0\] )?{re.escape(name)} = (\d+)'([hdb])([0-9a-fA-F_]+);", body, re.M)
+    assert m, f"no initialised register {name}"
+    value, width = _literal(m.group(2), m.group(3), m.group(4))
+    assert width == (int(m.group(1)) + 1 if m.group(1) else 1)
+    return value
+
+
+def _memory_init(body, name="storage"):
+    """The ``initial`` contents of memory ``name`` as a list (unassigned words are None)."""
+    m = re.search(rf"^\s*reg \[(\d+):0\] {name} \[(\d+):0\];", body, re.M)
+    assert m, f"no memory {name}"
+    words = [None] * (int(m.group(2)) + 1)
+    for k, width, base, digits in re.findall(rf"^\s*{name}\[(\d+)\] = (\d+)'([hdb])([0-9a-fA-F_]+);", body, re.M):
+        value, w = _literal(width, base, digits)
+        assert w == int(m.group(1)) + 1
+        words[int(k)] = value
+    return words
+
+
 def test_manifest_baked_into_power_up_state(tmp_path):
-    words = pack_iq([100, 200, 300], [0, 0, 0])
-    (tmp_path / "a.hex").write_text("".join(f"{int(w):08x}\n" for w in words))
+    """Each manifest value lands where it belongs: the stream words in channel 0's
+    first RAM bank, gain, delay (less the fixed latency), length, increment and
+    enable in channel 0's registers; channel 1 stays empty and off."""
+    n = 8
+    words = [int(w) for w in pack_iq([100 * (k + 1) for k in range(n)], [-7 * (k + 1) for k in range(n)])]
+    (tmp_path / "a.hex").write_text("".join(f"{w:08x}\n" for w in words))
+    increment, gain, delay = 0x12345, 0x0C000, 100
     manifest = {
-        "windmills": [{"name": "a", "hex_file": "a.hex", "length": 3}],
-        "registers": {"channels": [{"windmill": "a", "enable": 1, "length": 3,
-                                    "phase_increment": 1 << 31, "gain": 1 << 16,
-                                    "delay_increment": 100}]},
+        "windmills": [{"name": "a", "hex_file": "a.hex", "length": n}],
+        "registers": {"channels": [{"windmill": "a", "enable": 1, "length": n,
+                                    "phase_increment": increment, "gain": gain,
+                                    "delay_increment": delay}]},
     }
     (tmp_path / "manifest.json").write_text(json.dumps(manifest))
     out = tmp_path / "baked.v"
-    rv.main(["--channels", "2", "--stream-depth", "16", "--max-delay", "126", "--max-increment", "2",
-             "--manifest", str(tmp_path / "manifest.json"), "-o", str(out)])
+    args = ["--channels", "2", "--stream-depth", "16", "--max-delay", "126", "--max-increment", "2"]
+    assert rv.main(args + ["--manifest", str(tmp_path / "manifest.json"), "-o", str(out)]) == 0
     text = out.read_text()
     assert "initial contents from manifest.json: a" in text
-    assert "32'd300" in text or "32'h0000012c" in text
+    latency = ReplayContract(channels=2, stream_depth=16, max_delay=126, max_increment=2).latency
+    modules = _modules(text)
+
+    ram0 = _memory_init(modules["wind_farm_replay.stream0.mem"])
+    assert len(ram0) == 2 * 16                                # two banks of stream_depth words
+    assert ram0 == words + [0] * (2 * 16 - n)                 # bank 0, in order, nothing else
+    assert _memory_init(modules["wind_farm_replay.stream1.mem"]) == [0] * (2 * 16)
+
+    regs = modules["wind_farm_replay.regs"]
+    assert _reg_init(regs, "ctrl0_enable") == 1 and _reg_init(regs, "ctrl1_enable") == 0
+    assert _reg_init(regs, "gain0_gain") == gain and _reg_init(regs, "gain1_gain") == 0
+    assert _reg_init(regs, "delay0_delay") == delay - latency and _reg_init(regs, "delay1_delay") == 0
+    assert _reg_init(regs, "length0_length") == n
+    assert _reg_init(regs, "phase_inc0_inc") == increment and _reg_init(regs, "phase_inc1_inc") == 0
+
+    # Without the manifest every one of them powers up empty.
+    plain = _modules(rv.verilog_text(2, stream_depth=16, max_delay=126, max_increment=2))
+    assert _memory_init(plain["wind_farm_replay.stream0.mem"]) == [0] * (2 * 16)
+    assert _reg_init(plain["wind_farm_replay.regs"], "gain0_gain") == 0

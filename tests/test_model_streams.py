@@ -1,6 +1,8 @@
 """Streams: seamless periods, quantisation, RAM files read back as integers, the CLI end to end."""
 
 import json
+import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -23,19 +25,70 @@ def farm(rate=None, **top):
 
 @pytest.mark.parametrize("rate", [None, 10_000.0, "rts"])
 def test_stream_holds_exactly_one_period(rate):
-    f = farm(rate)
+    f = farm(rate, interpolation="hold")
     w = f.windmills[0]
     plan = plan_stream(w, f)
     t = stream_times(plan, w)
-    # The word after the last is the first again: sampling one step further
-    # lands on t = T_sim, where m repeats (eq. 2.13).
-    step = w.period_s / plan.length
-    m = modulation(w, np.append(t, t[-1] + step), f.radar.wavelength_m)
-    assert m[-1] == pytest.approx(m[0], abs=1e-9)
-    # ... and the phase step across the wrap is like the steps inside the period.
-    steps = np.abs(np.diff(m))
-    assert steps[-1] <= steps.max() + 1e-12
-    assert plan.length * step == pytest.approx(w.period_s)
+    t_sim = 60 / (15 * 3)                                  # eq. 2.13, 3 blades at 15 rpm
+    assert t.size == plan.length and t[0] == 0
+    # Evenly spaced over [0, T_sim): the word after the last would be t = T_sim, where
+    # m repeats; a stream of N + 1 words or a spacing of T_sim/(N - 1) has a seam.
+    step = t_sim / plan.length
+    assert np.max(np.abs(np.diff(t) - step)) < 1e-12
+    assert t[-1] + step == pytest.approx(t_sim, abs=1e-12)
+    m = modulation(w, np.array([0.0, t_sim, t_sim / 3]), f.radar.wavelength_m)
+    assert m[1] == pytest.approx(m[0], abs=1e-9)
+    assert abs(m[2] - m[0]) > 1e-3                          # (not trivially constant)
+
+
+@pytest.mark.parametrize("rate", [None, 10_000.0, "rts"])
+def test_replayed_period_is_t_sim_within_half_a_word(rate):
+    f = farm(rate, interpolation="hold")
+    plan = plan_stream(f.windmills[0], f)
+    fs = 20_000_000
+    t_sim = Fraction(60, 15 * 3)
+    # The replay block steps phase_increment / 2**32 words per RTS sample, so its N
+    # words last N·2**32 / (phase_increment·f_s) seconds: that must be T_sim, to
+    # within half a word (the rounding of the increment, or in the seed's mode of N).
+    replayed = Fraction(plan.length << fx.PHASE_FRAC_BITS, plan.phase_increment * fs)
+    assert abs(replayed - t_sim) <= t_sim / plan.length / 2
+    assert plan.length == {None: 7775, 10_000.0: 13_333, "rts": 26_666_667}[rate]
+
+
+@pytest.mark.parametrize("rate, mhz", [(None, 20), (10_000.0, 20), ("rts", 1)])
+def test_replayed_index_sequence(rate, mhz):
+    """With held words, the word the RTS model plays at sample n is the phase
+    accumulator's floor(n·inc / 2**32) mod N (exact integers), and that is the
+    word whose interval [k, k+1)·T_sim/N holds the sample's time, give or take
+    the exact drift of the rounded increment. (The seed's mode at a 1 MHz RTS
+    keeps the stream at 1.3 M words.)"""
+    from rast.model.radar import _replayed
+    from rast.model.stream import FarmStreams, WindmillStream
+    f = farm(rate, sample_rate=mhz, interpolation="hold")
+    w = f.windmills[0]
+    plan = plan_stream(w, f)
+    n_words, inc, fs = plan.length, plan.phase_increment, mhz * 1_000_000
+    # Stream words that spell their own index (I: low 15 bits, Q: the rest), at unit gain.
+    index = np.arange(n_words)
+    stream = WindmillStream(w, plan, None, index & 0x7FFF, index >> 15, 1.0, 0.0, 0, 1.0,
+                            gain=float(1 << (fx.STREAM_WIDTH - 1)))
+    fs_model = FarmStreams(f, [stream], [])
+    wrap = -(-(n_words << fx.PHASE_FRAC_BITS) // inc)       # first sample back at word 0
+    rng = np.random.default_rng(3)
+    n = np.concatenate([np.arange(0, 3000), np.arange(wrap - 3000, wrap + 3000),
+                        np.arange(2 * wrap - 500, 2 * wrap + 500), rng.integers(0, 2 * wrap, 2000)])
+    played = _replayed(fs_model, 0, n / fs)
+    got = (played.real.astype(np.int64) + (played.imag.astype(np.int64) << 15)).tolist()
+    assert np.array_equal(played, np.round(played))
+    t_sim = Fraction(60, 15 * 3)
+    for sample, word in zip(n.tolist(), got):
+        assert word == (sample * inc >> fx.PHASE_FRAC_BITS) % n_words, sample
+        ideal = Fraction(sample, fs) / t_sim * n_words          # position in words, physics time
+        drift = abs(Fraction(sample * inc, 1 << fx.PHASE_FRAC_BITS) - ideal)
+        assert drift < Fraction(sample // wrap + 1, 2)       # under half a word per period
+        assert word in {k % n_words for k in range(math.floor(ideal - drift), math.floor(ideal + drift) + 1)}
+    at = n.tolist().index
+    assert got[at(wrap - 1)] == n_words - 1 and got[at(wrap)] == 0
 
 
 def test_automatic_rate_is_at_least_the_oversampling_factor():
@@ -43,7 +96,11 @@ def test_automatic_rate_is_at_least_the_oversampling_factor():
     plan = plan_stream(f.windmills[0], f)
     assert plan.stream_rate_hz >= 4 * plan.max_doppler_hz
     assert plan.stream_rate_hz < 4 * plan.max_doppler_hz + 1 / f.windmills[0].period_s + 1e-9
-    assert plan.length == pytest.approx(plan.stream_rate_hz * plan.period_s)
+    # 2·ω·r/λ for the 26 m scatterer at 15 rpm and 5.35 GHz, and the fewest words
+    # holding 4× that over one period T_sim = 4/3 s.
+    f_max = 2 * (2 * math.pi * 15 / 60) * 26.0 / (299_792_458 / 5.35e9)
+    assert plan.max_doppler_hz == pytest.approx(f_max, rel=1e-12)
+    assert plan.length == math.ceil(4 * f_max * 4 / 3) == 7775
 
 
 def test_forced_rate_is_moved_to_a_seamless_one():
@@ -55,7 +112,7 @@ def test_forced_rate_is_moved_to_a_seamless_one():
 
 
 def test_rts_mode_is_one_word_per_sample():
-    f = farm("rts", ram_depth=1 << 26)
+    f = farm("rts", ram_depth=1 << 26, interpolation="hold")
     plan = plan_stream(f.windmills[0], f)
     assert plan.length == round(60 / 45 * 20e6)
     # One word per sample, as near as the replay block's increment register goes.

@@ -1,0 +1,143 @@
+"""User errors of the ``rast`` commands, and the readers of the files users name.
+
+A :class:`UserError` is a mistake in the command line or in a file it names;
+``rast.cli.main`` prints it as ``rast <command>: <message>`` and exits with
+status 2. Anything else that escapes a command is a bug and keeps its
+traceback. The readers here turn missing or malformed input into a
+:class:`UserError` naming the file, before any output is created.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from pathlib import Path
+
+__all__ = ["UserError", "read_json", "read_manifest", "manifest_streams", "check_output"]
+
+_HEX_WORD = re.compile(r"[0-9a-fA-F]{1,8}")
+
+
+class UserError(Exception):
+    """A mistake in the arguments or input files of a ``rast`` command."""
+
+
+def read_json(path, what: str):
+    """The JSON value in ``path``; ``what`` names the file in messages ("manifest", ...)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise UserError(f"cannot read the {what} {path}: {error.strerror or error}") from None
+    except UnicodeDecodeError:
+        raise UserError(f"the {what} {path} is not a text file") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise UserError(f"the {what} {path} is not valid JSON: {error}") from None
+
+
+def _need(cond: bool, where: str, problem: str):
+    if not cond:
+        raise UserError(f"{where}: {problem}")
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def read_manifest(path) -> tuple[dict, Path]:
+    """Read and check the shape of a ``rast stream`` manifest.
+
+    ``path`` is the ``manifest.json`` or the folder holding it. Returns
+    ``(manifest, file)``; the file's folder holds the stream files. Checks what
+    the loaders read (every windmill's ``name``, ``hex_file`` and ``length``;
+    every channel's ``windmill``, naming a listed windmill, and ``length``,
+    ``phase_increment``, ``gain`` and ``delay_increment`` as integers); whether
+    the values fit a replay block is left to the block's own checks.
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / "manifest.json"
+    manifest = read_json(path, "manifest")
+    where = f"manifest {path}"
+    _need(isinstance(manifest, dict), where, "is not a JSON object")
+    windmills = manifest.get("windmills")
+    _need(isinstance(windmills, list) and windmills, where, "has no 'windmills' list")
+    names = {}
+    for k, w in enumerate(windmills):
+        at = f"{where}: windmills[{k}]"
+        _need(isinstance(w, dict), at, "is not an object")
+        for key, kind in (("name", str), ("hex_file", str)):
+            _need(isinstance(w.get(key), kind), at, f"lacks the text '{key}'")
+        _need(_is_int(w.get("length")) and w["length"] >= 1, at, "lacks a positive integer 'length'")
+        names[w["name"]] = w
+    registers = manifest.get("registers")
+    channels = registers.get("channels") if isinstance(registers, dict) else None
+    _need(isinstance(channels, list) and channels, where, "has no 'registers.channels' list")
+    for k, ch in enumerate(channels):
+        at = f"{where}: registers.channels[{k}]"
+        _need(isinstance(ch, dict), at, "is not an object")
+        _need(isinstance(ch.get("windmill"), str) and ch["windmill"] in names, at,
+              f"names windmill {ch.get('windmill')!r}, which 'windmills' does not list")
+        for key in ("length", "phase_increment", "gain", "delay_increment"):
+            _need(_is_int(ch.get(key)), at, f"lacks the integer '{key}'")
+        _need(ch.get("enable", 1) in (0, 1) and not isinstance(ch.get("enable"), (bool, float)), at,
+              "'enable' must be 0 or 1")
+        _need(ch["length"] == names[ch["windmill"]]["length"], at,
+              f"length {ch['length']} differs from windmill {ch['windmill']!r}'s "
+              f"{names[ch['windmill']]['length']}")
+    return manifest, path
+
+
+def manifest_streams(manifest: dict, folder) -> list[list[int]]:
+    """The stream words of each channel of ``manifest`` (in channel order), read
+    from the ``.hex`` files in ``folder``; every problem names the file and line."""
+    by_name = {w["name"]: w for w in manifest["windmills"]}
+    streams = []
+    for ch in manifest["registers"]["channels"]:
+        path = Path(folder) / by_name[ch["windmill"]]["hex_file"]
+        try:
+            lines = path.read_text(encoding="ascii").split("\n")
+        except OSError as error:
+            raise UserError(f"cannot read the stream file {path}: {error.strerror or error}") from None
+        except UnicodeDecodeError:
+            raise UserError(f"the stream file {path} is not a text file of hex words") from None
+        words = []
+        for number, line in enumerate(lines, 1):
+            text = line.strip()
+            if not text:
+                continue
+            if not _HEX_WORD.fullmatch(text):
+                raise UserError(f"{path}: line {number}: {text[:20]!r} is not a 32-bit hex word")
+            words.append(int(text, 16))
+        if len(words) != ch["length"]:
+            raise UserError(f"{path} has {len(words)} words, the manifest says {ch['length']}")
+        streams.append(words)
+    return streams
+
+
+def check_output(path, *, folder: bool, option: str) -> Path:
+    """Refuse an output ``path`` that cannot be created, before anything is written.
+
+    ``folder``: the output is a folder (it may exist) rather than a file (it
+    may exist as a file, and is replaced). ``option`` names the argument.
+    """
+    path = Path(path)
+    if path.exists():
+        if folder and not path.is_dir():
+            raise UserError(f"{option} {path} exists and is not a folder")
+        if not folder and path.is_dir():
+            raise UserError(f"{option} {path} is a folder, not a file")
+    parent = path if folder else path.parent
+    ancestor = parent
+    while not ancestor.exists():
+        if ancestor.is_symlink():
+            raise UserError(f"{option} {path}: {ancestor} is a broken link")
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise UserError(f"{option} {path}: {ancestor} is a file, not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise UserError(f"{option} {path}: cannot write into {ancestor}")
+    return path
