@@ -20,10 +20,13 @@ from dataclasses import dataclass, field, asdict
 from pathlib import Path
 
 from ..model.fixedpoint import ReplayContract
+from .capacity import DEVICE_BLOCKS, channel_blocks, channel_dsps
 from .platforms import make_platform
+from .pll import pll_params
 from .top import BoardTop, DEFAULT_BAUD
+from .uart import divisor as uart_divisor
 
-__all__ = ["BuildConfig", "BuildError", "build", "tool_env", "parse_nextpnr_report",
+__all__ = ["BuildConfig", "BuildError", "build", "check", "tool_env", "parse_nextpnr_report",
            "parse_yosys_stat", "critical_path", "NAME"]
 
 NAME = "rast_top"
@@ -166,18 +169,49 @@ def _run(cmd, cwd, env, log_name, progress, show=None):
     return time.monotonic() - t0
 
 
+def check(cfg: BuildConfig):
+    """Everything about ``cfg`` that is known before the tools run: the replay
+    block's parameters, the target (board or device, package, speed grade, pin
+    map), the PLL setting for ``clock_mhz``, the UART divisor for ``baud`` and
+    whether the channels' block RAMs fit the device. Raises ``ValueError``
+    naming the problem; returns ``(contract, platform)``."""
+    contract = cfg.contract()
+    platform = make_platform(cfg.board, device=cfg.device, package=cfg.package, speed=cfg.speed,
+                             pinmap=cfg.pinmap)
+    if not (isinstance(cfg.clock_mhz, (int, float)) and cfg.clock_mhz > 0):
+        raise ValueError(f"Clock must be a positive number of MHz, not {cfg.clock_mhz!r}")
+    if not (isinstance(cfg.baud, int) and not isinstance(cfg.baud, bool) and cfg.baud > 0):
+        raise ValueError(f"Baud rate must be a positive integer, not {cfg.baud!r}")
+    f_in_mhz = platform.lookup(platform.default_clk).clock.frequency / 1e6
+    pll = pll_params(f_in_mhz, cfg.clock_mhz)
+    uart_divisor(pll.f_out_mhz * 1e6, cfg.baud)
+    # LFE5U, LFE5UM and LFE5UM5G of one size hold the same block RAMs.
+    blocks = DEVICE_BLOCKS.get("LFE5U-" + platform.device.rsplit("-", 1)[-1])
+    if blocks is not None:
+        need = sum(channel_blocks(contract, ch) for ch in range(contract.channels))
+        if need > blocks[0]:
+            raise ValueError(f"{contract.channels} channels with {contract.stream_depth}-word streams and "
+                             f"delays up to {contract.max_delay}/{contract.max_increment} samples "
+                             f"({contract.interpolation} interpolation) need {need} DP16KD block RAMs; "
+                             f"the {platform.device} has {blocks[0]}")
+        dsps = channel_dsps(contract) * contract.channels
+        if dsps > blocks[1]:
+            raise ValueError(f"{contract.channels} channels with {contract.interpolation} interpolation "
+                             f"need {dsps} MULT18X18D; the {platform.device} has {blocks[1]}")
+    return contract, platform
+
+
 def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
     """Build ``cfg`` into ``out_dir``; returns the report dict (also written as
     ``out_dir/report.json``). ``report["timing"]["met"]`` says whether every
-    clock met its constraint."""
+    clock met its constraint. ``cfg`` is checked (:func:`check`, ``ValueError``)
+    before ``out_dir`` is created."""
     progress = _Progress(quiet)
+    contract, platform = check(cfg)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     env = tool_env(env)
     os.environ.update({k: env[k] for k in TOOLS})   # the platform reads them at prepare time
-    contract = cfg.contract()
-    platform = make_platform(cfg.board, device=cfg.device, package=cfg.package, speed=cfg.speed,
-                             pinmap=cfg.pinmap)
     top = BoardTop(cfg.clock_mhz, cfg.baud, **cfg.replay_kwargs())
     times = {}
     t0 = time.monotonic()

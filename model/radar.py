@@ -9,6 +9,7 @@ each pulse holds every windmill whose echo is then being received:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,7 +52,12 @@ def _replayed(farm_streams: FarmStreams, index: int, t_s: np.ndarray) -> np.ndar
     from .datapath import stream_words
     s = next(s for s in farm_streams.streams if s.windmill is farm_streams.farm.windmills[index])
     n = np.round(t_s * farm_streams.farm.sample_rate_hz).astype(np.int64)
-    phase = (n * s.plan.phase_increment) % (s.plan.length << fx.PHASE_FRAC_BITS)
+    # n * increment passes 2**63 after 2**31 samples at one word per sample:
+    # reduce n by the phase's period first (exact, Python integers).
+    modulus = s.plan.length << fx.PHASE_FRAC_BITS
+    period = modulus // math.gcd(modulus, s.plan.phase_increment) if s.plan.phase_increment else 1
+    phase = ((n % period) * s.plan.phase_increment) % modulus if period < (1 << 31) else np.array(
+        [(int(k) * s.plan.phase_increment) % modulus for k in n], dtype=np.int64)
     wi, wq = stream_words(farm_streams.farm.interpolation, s.words, s.plan.length, phase)
     return (wi + 1j * wq) * (s.gain / (1 << (fx.STREAM_WIDTH - 1)))
 

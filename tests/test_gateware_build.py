@@ -56,7 +56,8 @@ def test_elaborates_for_ecp5(tmp_path, board, device):
     lpf = (tmp_path / "rast_top.lpf").read_text()
     assert il.count("cell \\IDDRX1F") == 16 and il.count("cell \\ODDRX1F") == 16 + 3
     assert "cell \\EHXPLLL" in il
-    assert il.count("cell \\MULT18X18D") == 2 * 6          # 4 complex + 2 gain per channel
+    # 4 complex + 2 gain + the FIR's 2 MAC and 2 linear-step multipliers per channel
+    assert il.count("cell \\MULT18X18D") == 2 * 10
     assert 'LOCATE COMP "rts_adc_0__data__io[0]" SITE "B11"' in lpf
     assert rep["pll"]["f_out_mhz"] == 100.0
     assert rep["memory"]["stream_words_per_bank"] == 256
@@ -89,7 +90,7 @@ def test_default_bitstream(tmp_path):
     assert rep["timing"]["fmax_mhz"] >= 100.0
     assert rep["config"]["channels"] == 8
     r = rep["resources"]
-    assert r["dsps"]["used"] == 8 * 6 and r["dsps"]["available"] == 156
+    assert r["dsps"]["used"] == 8 * 10 and r["dsps"]["available"] == 156
     assert r["block_rams"]["used"] <= r["block_rams"]["available"] == 208
     assert 0 < r["luts"]["used"] < r["luts"]["available"]
     assert 0 < r["ffs"]["used"] < r["ffs"]["available"]
