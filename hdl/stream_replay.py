@@ -195,10 +195,12 @@ class StreamReplay(wiring.Component):
         def switch(new_bank):
             return [bank_n.eq(new_bank), len_n.eq(self.length - 1), inc_n.eq(self.increment),
                     idx_n.eq(0), frac_n.eq(0), pend_n.eq(0), acc_n.eq(self.increment),
-                    swapping.eq(1), j_step.eq(0)]
+                    swapping.eq(1)]
 
+        # (At a switch this may shift the FIR's registers and count a job: the
+        # refill that follows recomputes all of them.)
+        m.d.comb += j_step.eq(en & (acc[F - PB:] != frac[F - PB:]))
         with m.If(en):
-            m.d.comb += j_step.eq(acc[F - PB:] != frac[F - PB:])
             with m.If(wrap_swap):
                 m.d.comb += switch(~bank)
             with m.Elif(wrap):
@@ -315,8 +317,12 @@ class StreamReplay(wiring.Component):
         with m.If(en):
             m.d.sync += [ca[0].eq(Cat(tap, cphase)), ca[1].eq(ca[0])]
             m.d.sync += [fl[k].eq(fl[k - 1]) for k in range(1, len(fl))]
-        with m.If(swapping):
-            # A switch cancels the jobs in flight and starts the refill.
+        # A switch cancels the jobs in flight and starts the refill, one clock
+        # later from a register (timing: the switch decision is a compare
+        # deep, and this reset fans out to the whole engine).
+        swapped = Signal()
+        m.d.sync += swapped.eq(swapping)
+        with m.If(swapped):
             m.d.sync += [issuing.eq(0), jobs.eq(3), seq.eq(0), tw.eq(0), tp.eq(0), lead.eq(FIR_LEAD)]
             m.d.sync += [fl[k].valid.eq(0) for k in range(1, len(fl))]
 
