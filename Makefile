@@ -35,7 +35,7 @@ bench-cosim: $(STAMP)
 bench-bitstream: $(STAMP)
 	$(BIN)/python bench/bench_bitstream.py $(BENCH_ARGS)
 
-# ULX3S-85F, 8 channels, 100 MHz by default; BUILD_ARGS="--channels 5 ..." for others.
+# ULX3S-85F, 8 channels, 20 MS/s (the examples' rate) by default; BUILD_ARGS="--clock-mhz 100 ..." for others.
 bitstream: $(STAMP)
 	$(BIN)/rast build --out $(BITSTREAM_OUT) $(BUILD_ARGS)
 

@@ -47,7 +47,7 @@ class BuildConfig:
     speed: str | None = None
     pinmap: str | None = None
     channels: int = 8
-    clock_mhz: float = 100.0
+    clock_mhz: float = 20.0          # the RTS sample clock: the examples' (seed Table 4.1: 20 MHz)
     baud: int = DEFAULT_BAUD
     stream_depth: int = 4096
     max_delay: int = 4094
@@ -233,6 +233,9 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
                 "output_div": top.pll.output_div, "f_vco_mhz": top.pll.f_vco_mhz},
         "uart": {"baud": cfg.baud, "divisor": top.system.divisor,
                  "timeout_cycles": top.system.timeout},
+        # What the bitstream replays, as `rast stream --build` and `rast load` read it.
+        "build": ReplayContract(**cfg.replay_kwargs(),
+                                sample_rate_hz=round(top.pll.f_out_mhz * 1e6)).to_dict(),
         "memory": {
             "stream_words_per_bank": contract.stream_depth,
             "stream_banks": 2,

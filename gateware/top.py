@@ -108,7 +108,8 @@ class BoardTop(Elaboratable):
         self.pll = pll_params(f_in, self.clock_mhz)
         m.submodules.pll = pll = ECP5PLL(clk_in.i, self.pll, domain="sync")
         f = self.pll.f_out_mhz * 1e6
-        self.system = sys_ = ReplaySystem(f, self.baud, **self.replay_kwargs)
+        # The SAMPLE_RATE register states the rate the PLL really makes.
+        self.system = sys_ = ReplaySystem(f, self.baud, sample_rate_hz=round(f), **self.replay_kwargs)
         m.submodules.system = sys_
 
         uart = platform.request("uart", 0)

@@ -30,7 +30,7 @@ class WindFarmReplay(wiring.Component):
     ----------
     channels : int
         N, 1 to 64.
-    stream_depth, max_delay, max_increment, interpolation, cmult_form :
+    stream_depth, max_delay, max_increment, interpolation, cmult_form, sample_rate_hz :
         See :class:`rast.model.fixedpoint.ReplayContract`.
     init : list of ChannelInit, optional
         Power-up streams (bank 0) and register values.
@@ -46,10 +46,11 @@ class WindFarmReplay(wiring.Component):
     """
 
     def __init__(self, channels=4, *, stream_depth=4096, max_delay=4094, max_increment=1022,
-                 interpolation="fir", cmult_form="4mult", init=None):
+                 interpolation="fir", cmult_form="4mult", sample_rate_hz=0, init=None):
         self._contract = ReplayContract(channels=channels, stream_depth=stream_depth,
                                         max_delay=max_delay, max_increment=max_increment,
-                                        interpolation=interpolation, cmult_form=cmult_form)
+                                        interpolation=interpolation, cmult_form=cmult_form,
+                                        sample_rate_hz=sample_rate_hz)
         init = list(init or [])
         if len(init) > channels:
             raise ValueError(f"Initial contents must be given for at most {channels} channels, "

@@ -284,6 +284,9 @@ class ReplayContract:
         (see the interpolation section above).
     cmult_form : str
         ``"4mult"`` or ``"3mult"`` complex multiplier (identical results).
+    sample_rate_hz : int
+        RTS sample rate the block is built for (register SAMPLE_RATE); 0 when
+        not stated (simulation). It changes no arithmetic.
     """
     channels: int = 4
     stream_depth: int = 4096
@@ -291,6 +294,11 @@ class ReplayContract:
     max_increment: int = 1022
     interpolation: str = "fir"
     cmult_form: str = "4mult"
+    sample_rate_hz: int = 0
+
+    #: Keys of :meth:`to_dict` that are constructor parameters.
+    PARAMETERS = ("channels", "stream_depth", "max_delay", "max_increment", "interpolation",
+                  "cmult_form", "sample_rate_hz")
 
     def __post_init__(self):
         def posint(name, what, v, lo=1, hi=None):
@@ -313,6 +321,23 @@ class ReplayContract:
                              f"not {self.stream_depth!r}")
         if self.cmult_form not in CMULT_FORMS:
             raise ValueError(f"Complex multiplier form must be one of 4mult, 3mult, not {self.cmult_form!r}")
+        posint("sample_rate_hz", "Sample rate", self.sample_rate_hz, 0, (1 << 32) - 1)
+
+    def to_dict(self) -> dict:
+        """What a block built with this contract is: its parameters and what
+        follows from them (``report.json``'s ``build``, read by ``rast stream
+        --build``)."""
+        return {**{k: getattr(self, k) for k in self.PARAMETERS},
+                "stream_banks": 2, "latency_samples": self.latency,
+                "stream_latency_samples": self.stream_latency,
+                "max_phase_increment": self.max_phase_increment,
+                "min_stream_length": self.min_stream_length,
+                "refill_samples": self.refill_samples}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ReplayContract":
+        """Inverse of :meth:`to_dict` (derived keys are ignored)."""
+        return cls(**{k: d[k] for k in cls.PARAMETERS if k in d})
 
     @property
     def guard_bits(self) -> int:

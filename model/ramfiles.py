@@ -43,8 +43,11 @@ def read_bin(path) -> np.ndarray:
     return np.fromfile(path, dtype="<u4").astype(np.int64)
 
 
-def write_farm_files(farm_streams: FarmStreams, out_dir) -> dict[str, Path]:
+def write_farm_files(farm_streams: FarmStreams, out_dir, *, build=None) -> dict[str, Path]:
     """Write every stream's files and the manifest into ``out_dir``.
+
+    ``build`` (a :class:`ReplayContract`) is recorded in the manifest as the
+    build the streams were sized for.
 
     The files are written into a staging folder beside ``out_dir`` first and
     moved into place only when all of them are complete, so a failure leaves
@@ -63,6 +66,8 @@ def write_farm_files(farm_streams: FarmStreams, out_dir) -> dict[str, Path]:
             np.save(staging / files["npy_file"], s.period)
             names[name] = files
         manifest = farm_streams.manifest(names)
+        if build is not None:
+            manifest["build"] = build.to_dict()
         (staging / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         written = {}
         for path in sorted(staging.iterdir()):

@@ -156,6 +156,10 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
         Register("MAX_INCREMENT", 0x0A, (Field("max", 0, 32, "ro", c.max_increment,
                                                "largest DELAY of channels 1..N-1"),),
                  "capability"),
+        Register("SAMPLE_RATE", 0x0B, (Field("hz", 0, 32, "ro", c.sample_rate_hz,
+                                             "RTS sample rate the block was built for, Hz "
+                                             "(0: not stated)"),),
+                 "capability: a manifest for another rate plays every Doppler and range wrong"),
     ]
     for ch in range(c.channels):
         base = CHANNEL_BASE + CHANNEL_STRIDE * ch
@@ -215,7 +219,25 @@ def read_hex_words(path) -> list:
     return [int(line, 16) for line in Path(path).read_text().split()]
 
 
+def _check_build(manifest, contract):
+    """A manifest states the sample rate and interpolation its streams were
+    made for: refuse it for a block built otherwise (naming both numbers)."""
+    rate = manifest.get("sample_rate_hz")
+    if rate is not None and contract.sample_rate_hz and round(float(rate)) != contract.sample_rate_hz:
+        ratio = contract.sample_rate_hz / float(rate)
+        raise ValueError(f"Manifest was made for a sample rate of {float(rate) / 1e6:g} MHz "
+                         f"(sample_rate_hz {round(float(rate))}) but the replay block runs at "
+                         f"{contract.sample_rate_hz / 1e6:g} MHz ({contract.sample_rate_hz}): every "
+                         f"Doppler would play {ratio:.3g}x too high and every range {ratio:.3g}x too "
+                         f"short; make the streams for this build (rast stream --build report.json)")
+    interp = manifest.get("interpolation")
+    if interp is not None and interp != contract.interpolation:
+        raise ValueError(f"Manifest's streams were made for {interp} interpolation but the replay block "
+                         f"interpolates with {contract.interpolation}")
+
+
 def _channel_values(manifest, contract):
+    _check_build(manifest, contract)
     chans = manifest["registers"]["channels"]
     if len(chans) > contract.channels:
         raise ValueError(f"Manifest has {len(chans)} windmills but the replay block has "
@@ -235,13 +257,14 @@ def _channel_values(manifest, contract):
             raise ValueError(f"{what} of channel {i} ({ch['windmill']!r}) must be in [0, {maxd}] "
                              f"samples after subtracting the latency, not {delay}")
         length = int(ch["length"])
-        if not 1 <= length <= contract.stream_depth:
+        if not contract.min_stream_length <= length <= contract.stream_depth:
             raise ValueError(f"Stream length of channel {i} ({ch['windmill']!r}) must be in "
-                             f"[1, {contract.stream_depth}] words, not {length}")
+                             f"[{contract.min_stream_length}, {contract.stream_depth}] words, not {length}")
         inc = int(ch["phase_increment"])
-        if not 0 <= inc < (1 << PHASE_FRAC_BITS):
+        if not 0 <= inc <= contract.max_phase_increment:
             raise ValueError(f"Phase increment of channel {i} ({ch['windmill']!r}) must be in "
-                             f"[0, 2**{PHASE_FRAC_BITS}) (stream rate below the sample rate), not {inc}")
+                             f"[0, {contract.max_phase_increment}] ({contract.interpolation} "
+                             f"interpolation), not {inc}")
         gain = int(ch["gain"])
         if not 0 <= gain < (1 << GAIN_WIDTH):
             raise ValueError(f"Gain word of channel {i} ({ch['windmill']!r}) must be in "

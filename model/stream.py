@@ -34,7 +34,7 @@ from .turbine import max_doppler_hz, modulation
 
 __all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams",
            "plan_stream", "stream_times", "quantise", "build_farm_streams",
-           "delay_samples"]
+           "delay_samples", "farm_for_build"]
 
 MIN_STREAM_WORDS = 16
 
@@ -141,6 +141,21 @@ class FarmStreams:
     streams: list[WindmillStream]   # sorted by range, nearest first: the channel order
     taps: list[dict]
 
+    def smallest_contract(self, channels: int | None = None) -> fx.ReplayContract:
+        """The smallest replay block that holds these streams (RAM depths are
+        powers of two), at the farm's sample rate and interpolation."""
+        def pow2(n):
+            return 1 << max(1, (max(1, n) - 1).bit_length())
+        ch = self.manifest()["registers"]["channels"]
+        incs = [c["delay_increment"] for c in ch[1:]] or [0]
+        interp = self.farm.interpolation
+        return fx.ReplayContract(
+            channels=channels or len(ch),
+            stream_depth=max(pow2(max(c["length"] for c in ch)), fx.min_stream_length(interp)),
+            max_delay=pow2(ch[0]["delay_increment"] + 2) - 2,
+            max_increment=max(2, pow2(max(incs) + 2) - 2), interpolation=interp,
+            sample_rate_hz=round(self.farm.sample_rate_hz))
+
     def manifest(self, file_names: dict[str, dict[str, str]] | None = None) -> dict:
         """The farm's manifest: per windmill its stream, delay and gain, and register values."""
         farm = self.farm
@@ -194,6 +209,29 @@ class FarmStreams:
             "taps": self.taps,
             "registers": {"channels": channels},
         }
+
+
+def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
+    """``farm`` sized for the replay block ``contract`` describes: its stream
+    depth becomes ``ram_depth``, its interpolation the farm's. Raises
+    :class:`ConfigError` when the config's sample rate is not the build's or
+    the farm has more windmills than the block has channels."""
+    import dataclasses
+    problems = []
+    if contract.sample_rate_hz and round(farm.sample_rate_hz) != contract.sample_rate_hz:
+        problems.append(f"'sample_rate' is {farm.sample_rate_mhz:g} MHz but the build replays at "
+                        f"{contract.sample_rate_hz / 1e6:g} MHz (sample_rate_hz "
+                        f"{contract.sample_rate_hz}): the streams would play every Doppler "
+                        f"{contract.sample_rate_hz / farm.sample_rate_hz:.3g}x too high; set "
+                        f"sample_rate = {contract.sample_rate_hz / 1e6:g} or build for "
+                        f"{farm.sample_rate_mhz:g} MHz")
+    if len(farm.windmills) > contract.channels:
+        problems.append(f"the farm has {len(farm.windmills)} windmills but the build has "
+                        f"{contract.channels} channels")
+    if problems:
+        raise ConfigError(problems)
+    return dataclasses.replace(farm, ram_depth=contract.stream_depth,
+                               interpolation=contract.interpolation)
 
 
 def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True) -> FarmStreams:

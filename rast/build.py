@@ -25,7 +25,8 @@ def add_arguments(p):
     g.add_argument("--pinmap", help="JSON pin map for a plain device (default: the ULX3S balls)")
     d = p.add_argument_group("design")
     d.add_argument("--channels", type=int, default=8, help="windmill channels N (default 8)")
-    d.add_argument("--clock-mhz", type=float, default=100.0, help="RTS sample clock (default 100)")
+    d.add_argument("--clock-mhz", type=float, default=20.0,
+                   help="RTS sample clock, MHz (default 20, the examples' rate; the block closes 100)")
     d.add_argument("--baud", type=int, default=1_000_000, help="host UART baud rate (default 1000000)")
     d.add_argument("--stream-depth", type=int, default=4096, help="stream words per bank (default 4096)")
     d.add_argument("--max-delay", type=int, default=4094, help="largest common delay (default 4094)")

@@ -23,17 +23,32 @@ def _print_streams(farm_streams) -> None:
 
 
 def cmd_stream(args) -> int:
+    from rast.errors import read_build
     from rast.model.ramfiles import write_farm_files
-    from rast.model.stream import build_farm_streams
+    from rast.model.regmap import manifest_to_register_writes
+    from rast.model.stream import build_farm_streams, farm_for_build
 
     check_output(args.out, folder=True, option="--out")
     farm = load_config(args.config)
+    contract = read_build(args.build) if args.build else None
+    if contract is not None:
+        farm = farm_for_build(farm, contract)
     farm_streams = build_farm_streams(farm)
+    if contract is not None:
+        try:
+            manifest_to_register_writes(farm_streams.manifest(), contract)
+        except ValueError as error:
+            raise UserError(f"the streams do not fit the build {args.build}: {error}") from None
     try:
-        written = write_farm_files(farm_streams, args.out)
+        written = write_farm_files(farm_streams, args.out, build=contract)
     except OSError as error:        # e.g. a full disk; nothing was moved into place
         raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
     _print_streams(farm_streams)
+    need = farm_streams.smallest_contract()
+    print(f"needs a build with at least {need.channels} channel(s), stream depth {need.stream_depth} "
+          f"words, common delay {need.max_delay}, delay increment {need.max_increment}, "
+          f"{need.interpolation} interpolation, {farm.sample_rate_mhz:g} MHz"
+          + (f"; sized for {args.build}" if contract is not None else ""))
     print(f"wrote {len(written)} files to {Path(args.out).resolve()}:")
     for name in sorted(written):
         print(f"  {written[name]}")
@@ -123,6 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("stream", help="write the modulation streams, RAM files and manifest")
     p.add_argument("config", help="TOML config (one windmill or a farm)")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--build", metavar="REPORT",
+                   help="report.json of the bitstream to load: streams sized for its stream depth, "
+                        "interpolation and channels; refused if its sample rate is not the config's")
     p.set_defaults(func=cmd_stream)
 
     p = sub.add_parser("preview", help="draw the micro-Doppler spectrogram the radar will see")

@@ -139,6 +139,7 @@ def run(args) -> int:
           f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s), stream depth {c.stream_depth}, "
           f"latency {c.latency}; simulator {args.simulator}", flush=True)
     sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
+                               interpolation=c.interpolation,
                                max_increment=c.max_increment)
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
                      label=f"cosim{c.channels}", public_all=False)

@@ -47,6 +47,20 @@ def _is_int(v) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
 
+def read_build(path):
+    """The replay block a bitstream was built for: ``report.json``'s ``build``
+    (written by ``rast build``), as a :class:`ReplayContract`."""
+    from rast.model.fixedpoint import ReplayContract
+    report = read_json(path, "build report")
+    build = report.get("build") if isinstance(report, dict) else None
+    _need(isinstance(build, dict), str(path), "has no 'build' section: give the report.json "
+          "that `rast build` wrote for the bitstream")
+    try:
+        return ReplayContract.from_dict(build)
+    except (TypeError, ValueError) as error:
+        raise UserError(f"{path}: its 'build' section is not a replay block: {error}") from None
+
+
 def read_manifest(path) -> tuple[dict, Path]:
     """Read and check the shape of a ``rast stream`` manifest.
 

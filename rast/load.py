@@ -40,7 +40,8 @@ def read_contract(bridge: HostBridge) -> ReplayContract:
                        max_delay=bridge.read(a("MAX_DELAY")),
                        max_increment=bridge.read(a("MAX_INCREMENT")),
                        interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],
-                       cmult_form="3mult" if cfg >> 10 & 1 else "4mult")
+                       cmult_form="3mult" if cfg >> 10 & 1 else "4mult",
+                       sample_rate_hz=bridge.read(a("SAMPLE_RATE")))
     lat = bridge.read(a("LATENCY"))
     if lat != c.latency:
         raise LoadError(f"Bitstream latency {lat} differs from the model's {c.latency} for "

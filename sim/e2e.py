@@ -18,6 +18,7 @@ windmill's maximum Doppler in the RTL spectrogram with the physics.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,20 +47,10 @@ class E2E:
     info: dict = field(default_factory=dict)
 
 
-def _pow2_at_least(n: int) -> int:
-    return 1 << max(1, (max(1, n) - 1).bit_length())
-
-
 def contract_for(farm_streams, channels: int | None = None) -> ReplayContract:
-    """The smallest replay block the farm fits (RAM depths are powers of two)."""
-    ch = farm_streams.manifest()["registers"]["channels"]
-    n = channels or len(ch)
-    depth = _pow2_at_least(max(c["length"] for c in ch))
-    common = ch[0]["delay_increment"]
-    incs = [c["delay_increment"] for c in ch[1:]] or [0]
-    return ReplayContract(channels=n, stream_depth=depth,
-                          max_delay=_pow2_at_least(common + 2) - 2,
-                          max_increment=max(2, _pow2_at_least(max(incs) + 2) - 2))
+    """The smallest replay block the farm fits (sample rate not stated: it
+    changes no integer, and one build serves every rate)."""
+    return dataclasses.replace(farm_streams.smallest_contract(channels), sample_rate_hz=0)
 
 
 def prepare(config, seconds: float = 1.0, *, channels: int | None = None, amplitude: float = 0.4,

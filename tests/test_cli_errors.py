@@ -222,7 +222,7 @@ def test_verilog_manifest_does_not_fit(tmp_path, capsys):
 def test_verilog_manifest_stream_longer_than_the_ram(tmp_path, capsys):
     path = write_manifest(tmp_path / "m", lengths=(20,))
     verilog_error(capsys, tmp_path, ["--manifest", path], "stream depth 16",
-                  "Stream length of channel 0 ('w0') must be in [1, 16] words, not 20")
+                  "Stream length of channel 0 ('w0') must be in [8, 16] words, not 20")
 
 
 def test_verilog_bad_stream_depth(tmp_path, capsys):

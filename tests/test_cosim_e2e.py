@@ -30,6 +30,7 @@ def run_e2e(simulator, seconds, name, require_peaks=True, noise_rms=0.0):
     e = prepare(CONFIG, seconds, noise_rms=noise_rms)
     c = e.scenario.contract
     sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
+                               interpolation=c.interpolation,
                                max_increment=c.max_increment)
     run_dir = cocotb_run(sources, top, "rast.sim.tb_e2e", "e2e", simulator=simulator, public_all=False,
                          label=f"e2e{c.channels}", name=name,

@@ -14,6 +14,7 @@ import pytest
 
 from rast.gateware.simuart import SimUART
 from rast.gateware.top import ReplaySystem
+from rast.errors import UserError
 from rast.load import read_contract, load_manifest, read_status, LoadError
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract, pack_iq
@@ -88,7 +89,7 @@ def _manifest(tmp_path, rng):
         (tmp_path / f"wm{k}.hex").write_text("".join(f"{int(w):08x}\n" for w in pack_iq(i, q)))
         wms.append({"name": f"wm{k}", "hex_file": f"wm{k}.hex", "length": n})
         chans.append({"windmill": f"wm{k}", "enable": 1, "length": n,
-                      "phase_increment": [0x5555_5555, 0xC000_0000][k],
+                      "phase_increment": [0x0055_5555, 0x0050_0000][k],   # FIR: <= 5592405
                       "gain": [0xC000, 0x10000][k], "delay_increment": [40, 9][k]})
     (tmp_path / "manifest.json").write_text(json.dumps(
         {"format": "rast-manifest/1", "windmills": wms, "registers": {"channels": chans}}))
@@ -168,3 +169,50 @@ def test_load_rejects_wrong_bitstream():
         def read(self, addr): return 0
     with pytest.raises(LoadError, match=r"^Register ID reads 0x00000000"):
         read_contract(Fake())
+
+
+def _refused(tmp_path, edit, sample_rate_hz=100_000_000):
+    """Load a manifest changed by ``edit`` into a block built for ``sample_rate_hz``:
+    the refusal's message, and the bus writes that reached the block (none)."""
+    rng = np.random.default_rng(9)
+    _manifest(tmp_path, rng)
+    path = tmp_path / "manifest.json"
+    manifest = json.loads(path.read_text())
+    edit(manifest, tmp_path)
+    path.write_text(json.dumps(manifest))
+    sys_ = ReplaySystem(100e6, divisor=DIV, timeout=TIMEOUT, sample_rate_hz=sample_rate_hz, **KW)
+    uart = SimUART(sys_, DIV)
+    writes = []
+
+    async def watch(ctx):
+        async for _, _, stb in ctx.tick().sample(sys_.bridge.bus.w_stb):
+            if stb:
+                writes.append(1)
+
+    uart.add_process(watch)
+    br = HostBridge(uart)
+    c = read_contract(br)
+    assert c.sample_rate_hz == sample_rate_hz           # read from the SAMPLE_RATE register
+    with pytest.raises(UserError) as info:
+        load_manifest(br, tmp_path, c)
+    return str(info.value), writes
+
+
+def test_load_refuses_a_manifest_for_another_sample_rate(tmp_path):
+    msg, writes = _refused(tmp_path, lambda m, _: m.update(sample_rate_hz=20e6, interpolation="fir"))
+    assert "20 MHz (sample_rate_hz 20000000)" in msg and "runs at 100 MHz (100000000)" in msg
+    assert "5x too high" in msg and not writes
+
+
+def test_load_refuses_streams_that_do_not_fit(tmp_path):
+    def longer(m, folder):
+        m["registers"]["channels"][0]["length"] = 65
+        m["windmills"][0]["length"] = 65
+        (folder / "wm0.hex").write_text("00000001\n" * 65)
+    msg, writes = _refused(tmp_path, longer)
+    assert "stream depth 64" in msg and "must be in [8, 64] words, not 65" in msg and not writes
+
+
+def test_load_refuses_streams_made_for_another_interpolation(tmp_path):
+    msg, writes = _refused(tmp_path, lambda m, _: m.update(interpolation="hold"))
+    assert "made for hold interpolation" in msg and "interpolates with fir" in msg and not writes

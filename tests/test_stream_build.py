@@ -1,0 +1,105 @@
+"""One chain from config to bitstream: `rast stream --build report.json`, the
+build description both sides read, and the README's configuration example."""
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from rast.cli import main
+from rast.gateware.build import BuildConfig
+from rast.model.config import load_config
+from rast.model.fixedpoint import ReplayContract
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _report(tmp_path, **kw):
+    c = ReplayContract(**{"channels": 8, "stream_depth": 4096, "sample_rate_hz": 20_000_000, **kw})
+    path = tmp_path / "report.json"
+    path.write_text(json.dumps({"build": c.to_dict()}))
+    return path
+
+
+def _readme_config(tmp_path):
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"## Configuration.*?```toml\n(.*?)```", text, re.S).group(1)
+    path = tmp_path / "readme.toml"
+    path.write_text(block)
+    return path
+
+
+def test_readme_configuration_example_runs_and_fits_the_default_build(tmp_path, capsys):
+    config = _readme_config(tmp_path)
+    default = BuildConfig()
+    report = _report(tmp_path, channels=default.channels, stream_depth=default.stream_depth,
+                     interpolation=default.interpolation,
+                     sample_rate_hz=round(default.clock_mhz * 1e6))
+    out = tmp_path / "out"
+    assert main(["stream", str(config), "--out", str(out), "--build", str(report)]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    (w,) = manifest["windmills"]
+    assert w["length"] == 3589 <= default.stream_depth
+    assert manifest["build"]["stream_depth"] == default.stream_depth
+    assert manifest["sample_rate_hz"] == default.clock_mhz * 1e6
+    assert "needs a build with at least 1 channel(s), stream depth 4096" in capsys.readouterr().out
+
+
+def test_default_bitstream_runs_at_the_examples_sample_rate():
+    rates = {load_config(p).sample_rate_mhz for p in (ROOT / "examples").glob("*.toml")}
+    assert rates == {BuildConfig().clock_mhz}
+
+
+def test_stream_for_a_build_of_another_sample_rate_is_refused(tmp_path, capsys):
+    report = _report(tmp_path, sample_rate_hz=100_000_000)
+    out = tmp_path / "out"
+    assert main(["stream", str(_readme_config(tmp_path)), "--out", str(out), "--build", str(report)]) == 2
+    err = capsys.readouterr().err
+    assert "'sample_rate' is 20 MHz but the build replays at 100 MHz (sample_rate_hz 100000000)" in err
+    assert "5x too high" in err and not out.exists()
+
+
+def test_stream_that_does_not_fit_the_build_is_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    config = ROOT / "examples" / "two_windmills.toml"
+    assert main(["stream", str(config), "--out", str(out), "--build", str(_report(tmp_path))]) == 2
+    err = capsys.readouterr().err
+    assert "windmill 'wm15': its stream needs 23323 words" in err and "'ram_depth' is 4096" in err
+    assert not out.exists()
+
+
+def test_stream_with_more_windmills_than_channels_is_refused(tmp_path, capsys):
+    config = ROOT / "examples" / "sec4_3_4_four_windmills.toml"
+    report = _report(tmp_path, channels=2, stream_depth=32768)
+    assert main(["stream", str(config), "--out", str(tmp_path / "o"), "--build", str(report)]) == 2
+    assert "the farm has 4 windmills but the build has 2 channels" in capsys.readouterr().err
+
+
+def test_stream_takes_the_builds_interpolation(tmp_path):
+    out = tmp_path / "out"
+    report = _report(tmp_path, interpolation="hold")
+    assert main(["stream", str(_readme_config(tmp_path)), "--out", str(out), "--build", str(report)]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["interpolation"] == "hold" == manifest["build"]["interpolation"]
+
+
+@pytest.mark.parametrize("content, message", [
+    ("{}", "has no 'build' section"),
+    ('{"build": {"channels": 0}}', "Channel count must be a positive integer, not 0"),
+    ("not json", "is not valid JSON"),
+])
+def test_bad_build_reports_are_refused(tmp_path, capsys, content, message):
+    report = tmp_path / "report.json"
+    report.write_text(content)
+    out = tmp_path / "out"
+    assert main(["stream", str(_readme_config(tmp_path)), "--out", str(out), "--build", str(report)]) == 2
+    assert message in capsys.readouterr().err and not out.exists()
+
+
+def test_contract_description_round_trips():
+    c = ReplayContract(channels=3, stream_depth=64, max_delay=10, max_increment=4,
+                       interpolation="linear", cmult_form="3mult", sample_rate_hz=12_345_678)
+    d = c.to_dict()
+    assert ReplayContract.from_dict(json.loads(json.dumps(d))) == c
+    assert d["latency_samples"] == 3 * 3 + 3 + 4 and d["max_phase_increment"] == 2**32 - 1
