@@ -167,7 +167,8 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
         maxd = c.max_segment_delay(ch)
         regs += [
             Register("CTRL", base + 0, (
-                Field("enable", 0, 1, "rw", int(ini.enable), "channel contributes to the sum"),
+                Field("enable", 0, 1, "rw", int(ini.enable), "channel contributes to the sum; "
+                      "written before input k, from output k + 3(N - l)"),
                 Field("swap", 1, 1, "wo", 0,
                       "write 1: switch to the other bank at the next period boundary (at once if "
                       "the write leaves the channel disabled); reads 1 while pending"),
@@ -181,12 +182,14 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
             Register("PHASE_INC", base + 2, (Field("inc", 0, PHASE_FRAC_BITS, "rw",
                                                    min(ini.phase_increment & ((1 << PHASE_FRAC_BITS) - 1), c.max_phase_increment),
                                                    "stream words per sample * 2**32 for the next bank "
-                                                   f"(0..{c.max_phase_increment})",
+                                                   f"(0..{c.max_phase_increment}); output n plays the "
+                                                   "phase of input step n - L + 3l + 3 - SL",
                                                    clamp=(0, c.max_phase_increment)),),
                      "latched into the stream at the bank switch", ch),
             Register("GAIN", base + 3, (Field("gain", 0, GAIN_WIDTH, "rw", ini.gain,
-                                              "gain, unsigned, 16 fractional bits"),),
-                     "takes effect at once", ch),
+                                              "gain, unsigned, 16 fractional bits; written before "
+                                              "input k, from output k + 3(N - l)"),),
+                     "written before input k: from output k + 3(N - l) (docs/fixed_point.md, Alignment)", ch),
             Register("DELAY", base + 4, (Field("delay", 0, _bits(maxd), "rw", min(ini.delay, maxd),
                                                "delay of this segment in samples (0..max), "
                                                "takes effect on APPLY", clamp=(0, maxd)),),
