@@ -295,8 +295,10 @@ class StreamReplay(wiring.Component):
             with m.If(tap == T - 1):
                 m.d.sync += issuing.eq(0)
 
-        # Coefficient ROM, addressed by (phase, tap); its address is delayed two
-        # samples so that the coefficient meets the RAM's word (latency 3).
+        # Coefficient ROM, addressed by (phase, tap); its address is delayed one
+        # sample and its output registered in fabric (timing: a block RAM's
+        # clock-to-out plus the route to both multipliers limited 8 channels to
+        # 83 MHz), so that the coefficient meets the RAM's word (latency 3).
         coefs = fir_coefficients()
         TB = (T - 1).bit_length()
         rom_init = [0] * ((1 << PB) << TB)
@@ -306,16 +308,17 @@ class StreamReplay(wiring.Component):
         m.submodules.coef_rom = rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=len(rom_init),
                                              init=rom_init)
         rom_rd = rom.read_port(domain="sync")
-        ca = [Signal(PB + TB, name=f"coef_addr{k}") for k in range(2)]
+        ca = Signal(PB + TB, name="coef_addr")
+        coef = Signal(signed(FIR_COEF_WIDTH))
         issue = Signal()
         m.d.comb += [issue.eq(issuing), ram.r_en.eq(en), ram.r_addr.eq(Cat(raddr, bank)),
-                     rom_rd.en.eq(en), rom_rd.addr.eq(ca[-1])]
+                     rom_rd.en.eq(en), rom_rd.addr.eq(ca)]
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
         fl = [Signal(flags, name=f"mac_flags{k}") for k in range(8)]     # fl[k]: k samples after issue
         m.d.comb += [fl[0].valid.eq(issue), fl[0].first.eq(tap == 0), fl[0].last.eq(tap == T - 1),
                      fl[0].dest.eq(dest)]
         with m.If(en):
-            m.d.sync += [ca[0].eq(Cat(tap, cphase)), ca[1].eq(ca[0])]
+            m.d.sync += [ca.eq(Cat(tap, cphase)), coef.eq(rom_rd.data)]
             m.d.sync += [fl[k].eq(fl[k - 1]) for k in range(1, len(fl))]
         # A switch cancels the jobs in flight and starts the refill, one clock
         # later from a register (timing: the switch decision is a compare
@@ -334,7 +337,7 @@ class StreamReplay(wiring.Component):
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
             m.submodules[f"fir_mul_{part}"] = mul
-            m.d.comb += [mul.en.eq(en), mul.a.eq(getattr(word, part)), mul.b.eq(rom_rd.data)]
+            m.d.comb += [mul.en.eq(en), mul.a.eq(getattr(word, part)), mul.b.eq(coef)]
             acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}")
             with m.If(en & fl[5].valid):
                 m.d.sync += acc.eq(Mux(fl[5].first, mul.o, acc + mul.o))
