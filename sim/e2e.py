@@ -161,9 +161,14 @@ def physics_doppler_track(windmill, wavelength_m: float, t_s: np.ndarray) -> np.
     return f[np.argmax(np.abs(f), axis=0), np.arange(len(t_s))]
 
 
-def doppler_check(e: E2E, spectra: list, *, search_bins: int = 4) -> list[dict]:
+def doppler_check(e: E2E, spectra: list, *, edge_db: float = 6.0) -> list[dict]:
     """For each windmill: the frame where its physical Doppler peaks, the RTL
-    spectrogram's peak near it, and both values (Hz) with the bin width."""
+    spectrogram's Doppler edge in that frame (the bin farthest out on the
+    physics' side, over the whole band, within ``edge_db`` of the frame's
+    strongest line), and both values (Hz) with the bin width. Searching the
+    whole band, not a window around the expected value, lets a misplaced or
+    missing signature fail. 6 dB: the Hann window's main lobe is 6 dB down
+    one bin from its centre, so the edge of a line lies within a bin of it."""
     from rast.model.turbine import max_doppler_hz
     farm = e.farm
     lam = farm.radar.wavelength_m
@@ -176,10 +181,11 @@ def doppler_check(e: E2E, spectra: list, *, search_bins: int = 4) -> list[dict]:
             track = physics_doppler_track(w, lam, spec.times_s)
             j = int(np.argmax(np.abs(track)))
             expected = float(track[j])
-            k0 = int(np.argmin(np.abs(spec.doppler_hz - expected)))
-            lo, hi = max(0, k0 - search_bins), min(spec.doppler_hz.size, k0 + search_bins + 1)
-            k = lo + int(np.argmax(spec.power_db[j, lo:hi]))
-            measured = float(spec.doppler_hz[k])
+            frame = spec.power_db[j]
+            strong = np.nonzero(frame >= frame.max() - edge_db)[0]
+            side = strong[np.sign(spec.doppler_hz[strong]) == np.sign(expected)]
+            measured = (float(spec.doppler_hz[side[np.argmax(np.abs(spec.doppler_hz[side]))]])
+                        if side.size else 0.0)
             fine = np.linspace(spec.times_s[0], spec.times_s[-1], 20001)
             run_max = float(np.abs(physics_doppler_track(w, lam, fine)).max())
             top = max_doppler_hz(w, lam)

@@ -55,7 +55,7 @@ def check_bulk_run(sc: Scenario, summary: dict, *, expected=None, overflow_obser
         sb._fail(f"{sc.name}: checksums of all {len(yi)} outputs differ: RTL {got}, model {want}")
     if overflow_observed is not None and overflow_observed != ovf:
         sb._fail(f"{sc.name}: sticky overflow flag RTL {overflow_observed}, model {ovf}")
-    report = dict(name=sc.name, compared=int(sb.compared), checksummed=len(yi), mismatches=0,
+    report = dict(name=sc.name, compared=int(sb.compared), checksummed=len(yi), mismatches=int(sb.mismatches),
                   nonzero=active,
                   overflow=ovf, cycles=summary["cycles"], samples=summary["in"],
                   wall_s=summary["wall_s"], samples_per_s=summary["in"] / max(summary["wall_s"], 1e-9))
