@@ -10,7 +10,7 @@ import tempfile
 from pathlib import Path
 
 from rast.model.config import ConfigError, load_config
-from rast.errors import UserError, check_output
+from rast.errors import UserError, check_output, positive_hz
 
 
 def _print_streams(farm_streams) -> None:
@@ -108,16 +108,6 @@ def cmd_preview(args) -> int:
     return 0
 
 
-def _positive_hz(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive frequency in Hz, not {text}")
-    return value
-
-
 def _number(what: str, low: float = 0.0, high: float = float("inf"), *, low_inclusive=False):
     """An argparse type: a float in (low, high) ([low, high) with ``low_inclusive``)."""
     def parse(text: str) -> float:
@@ -153,7 +143,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fraction of a CPI shared by consecutive frames (default 0, as a radar)")
     p.add_argument("--dynamic-range", type=_number("a positive number of dB"), default=90.0,
                    help="colour scale depth in dB (default 90: spurs down to the SFDR a replay should reach)")
-    p.add_argument("--zoom", type=_positive_hz, default=None, metavar="HZ",
+    p.add_argument("--zoom", type=positive_hz, default=None, metavar="HZ",
                    help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
     p.add_argument("--replay", action="store_true",
                    help="show the quantised stream words as the RTS replays them, not the physics")

@@ -32,6 +32,8 @@ import sys
 import time
 from pathlib import Path
 
+from rast.errors import positive_hz
+
 __all__ = ["add_arguments", "run", "main"]
 
 
@@ -50,22 +52,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="CPI overlap of the spectrogram frames (default 0.9)")
     p.add_argument("--check-doppler", action="store_true",
                    help="also fail unless every windmill's maximum Doppler is seen and within one bin")
-    p.add_argument("--zoom", type=_positive_hz, default=None, metavar="HZ",
+    p.add_argument("--zoom", type=positive_hz, default=None, metavar="HZ",
                    help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
     p.add_argument("--dynamic-range", type=float, default=90.0,
                    help="colour scale depth of the spectrogram in dB (default 90)")
     p.add_argument("--waves", action="store_true",
                    help="dump a waveform: VCD with Verilator, FST with Icarus (large for long runs)")
-
-
-def _positive_hz(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive frequency in Hz, not {text}")
-    return value
 
 
 def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,

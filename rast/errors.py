@@ -155,3 +155,15 @@ def check_output(path, *, folder: bool, option: str) -> Path:
     if not os.access(ancestor, os.W_OK | os.X_OK):
         raise UserError(f"{option} {path}: cannot write into {ancestor}")
     return path
+
+
+def positive_hz(text: str) -> float:
+    """argparse type of a frequency option (``--zoom``): a positive number of Hz."""
+    import argparse
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive frequency in Hz, not {text}")
+    return value
