@@ -150,10 +150,16 @@ class StreamReplay(wiring.Component):
 
         fir = self._interpolation == "fir"
         if fir:
-            # The phase is held while the FIR's registers are refilled.
-            refill = Signal(range(self.refill_samples + 1), init=self.refill_samples)
+            # The phase is held while the FIR's registers are refilled: from the
+            # clock after a switch (``swapped``, a register: timing) for
+            # ``refill_samples`` steps, counted by ``refill`` (``muting`` is
+            # ``refill != 0`` kept as a register).
+            W = self.refill_samples
+            refill = Signal(range(W + 1), init=W)
+            muting = Signal(init=1)
+            swapped = Signal()
             refilling = Signal()
-            m.d.comb += refilling.eq(refill != 0)
+            m.d.comb += refilling.eq(muting | swapped)
             en = Signal()
             m.d.comb += en.eq(self.en & ~refilling)
         idx = self.index
@@ -215,11 +221,12 @@ class StreamReplay(wiring.Component):
                      bank.eq(bank_n), pending.eq(pend_n), acc.eq(acc_n)]
 
         if fir:
-            with m.If(swapping):
-                m.d.sync += refill.eq(self.refill_samples)
-            with m.Elif(self.en & refilling):
-                m.d.sync += refill.eq(refill - 1)
-            self._elaborate_fir(m, rams[0], bank, len_m1, frac, swapping, j_step, refilling)
+            m.d.sync += swapped.eq(swapping)
+            with m.If(swapped):
+                m.d.sync += [refill.eq(W - self.en), muting.eq(1)]
+            with m.Elif(self.en & muting):
+                m.d.sync += [refill.eq(refill - 1), muting.eq(refill != 1)]
+            self._elaborate_fir(m, rams[0], bank, len_m1, frac, swapped, j_step, refilling)
             return m
 
         w0 = Signal(IQ(STREAM_WIDTH))
@@ -256,7 +263,7 @@ class StreamReplay(wiring.Component):
         m.d.comb += self.o.eq(out)
         return m
 
-    def _elaborate_fir(self, m, ram, bank, len_m1, frac, swapping, j_step, refilling):
+    def _elaborate_fir(self, m, ram, bank, len_m1, frac, swapped, j_step, refilling):
         """The FIR interpolator: serial MAC into U[J..J+2], then the linear step."""
         D, F, W, T, PB = self._depth, PHASE_FRAC_BITS, STREAM_WIDTH, FIR_TAPS, FIR_PHASE_BITS
         en = self.en
@@ -323,8 +330,6 @@ class StreamReplay(wiring.Component):
         # A switch cancels the jobs in flight and starts the refill, one clock
         # later from a register (timing: the switch decision is a compare
         # deep, and this reset fans out to the whole engine).
-        swapped = Signal()
-        m.d.sync += swapped.eq(swapping)
         with m.If(swapped):
             m.d.sync += [issuing.eq(0), jobs.eq(3), seq.eq(0), tw.eq(0), tp.eq(0), lead.eq(FIR_LEAD)]
             m.d.sync += [fl[k].valid.eq(0) for k in range(1, len(fl))]
