@@ -65,6 +65,8 @@ class StreamReplay(wiring.Component):
         Current state; ``pending_next``/``bank_next`` after this cycle's step.
     index, active_length : Out
         The read index and the active length (``index < active_length``).
+    at_last : Out(1)
+        ``index == active_length - 1`` (kept as a register: the wrap decision).
     """
 
     def __init__(self, depth, *, interpolation="fir", init=(), init_length=None, init_increment=0):
@@ -112,6 +114,7 @@ class StreamReplay(wiring.Component):
             "bank_next": Out(1),
             "index": Out(range(depth)),
             "active_length": Out(range(depth + 1), init=init_length),
+            "at_last": Out(1, init=init_length == 1),
         })
 
     @property
@@ -182,10 +185,15 @@ class StreamReplay(wiring.Component):
         carry = acc[F]
         wrap = Signal()
         wrap_swap = Signal()
-        # (Timing: the compare against ``length - 1`` behind the carry chain
-        # of ``frac + inc`` limited the block to 87 MHz.)
-        m.d.comb += [acc_n.eq(acc), step.eq(acc[:F] + inc)]
-        m.d.comb += [wrap.eq(carry & (idx == len_m1)),
+        # ``last`` is ``idx == len_m1`` kept as a register, its successor
+        # chosen from compares of registers, so the wrap decision is an AND of
+        # flip-flops. (Timing: the compare against ``length - 1`` behind the
+        # carry chain of ``frac + inc`` limited the block to 87 MHz; the
+        # equality itself, routed into the switch logic, to 86 MHz with FIR.)
+        last = Signal(init=self._init_length == 1)
+        last_n = Signal()
+        m.d.comb += [acc_n.eq(acc), step.eq(acc[:F] + inc), last_n.eq(last), self.at_last.eq(last)]
+        m.d.comb += [wrap.eq(carry & last),
                      wrap_swap.eq(en & pending & wrap),
                      idx_n.eq(idx), frac_n.eq(frac), len_n.eq(len_m1), inc_n.eq(inc),
                      bank_n.eq(bank), pend_n.eq(pending),
@@ -201,7 +209,7 @@ class StreamReplay(wiring.Component):
         def switch(new_bank):
             return [bank_n.eq(new_bank), len_n.eq(self.length - 1), inc_n.eq(self.increment),
                     idx_n.eq(0), frac_n.eq(0), pend_n.eq(0), acc_n.eq(self.increment),
-                    swapping.eq(1)]
+                    last_n.eq(self.length == 1), swapping.eq(1)]
 
         # (At a switch this may shift the FIR's registers and count a job: the
         # refill that follows recomputes all of them.)
@@ -210,15 +218,17 @@ class StreamReplay(wiring.Component):
             with m.If(wrap_swap):
                 m.d.comb += switch(~bank)
             with m.Elif(wrap):
-                m.d.comb += [idx_n.eq(0), frac_n.eq(acc[:F]), acc_n.eq(step)]
+                m.d.comb += [idx_n.eq(0), frac_n.eq(acc[:F]), acc_n.eq(step), last_n.eq(len_m1 == 0)]
             with m.Else():
                 m.d.comb += [idx_n.eq(idx + carry), frac_n.eq(acc[:F]), acc_n.eq(step)]
+                with m.If(carry):
+                    m.d.comb += last_n.eq(idx + 1 == len_m1)
         with m.If(self.swap_force):
             m.d.comb += switch(~self.bank_next)
         with m.Elif(self.swap_req):
             m.d.comb += pend_n.eq(1)
         m.d.sync += [idx.eq(idx_n), frac.eq(frac_n), len_m1.eq(len_n), inc.eq(inc_n),
-                     bank.eq(bank_n), pending.eq(pend_n), acc.eq(acc_n)]
+                     bank.eq(bank_n), pending.eq(pend_n), acc.eq(acc_n), last.eq(last_n)]
 
         if fir:
             m.d.sync += swapped.eq(swapping)

@@ -45,7 +45,9 @@ class StreamAddressCheck(Elaboratable):
                      dut.wr_bank.eq(AnySeq(1)), dut.wr_addr.eq(AnySeq(dut.wr_addr.shape())),
                      dut.wr_data.eq(AnySeq(32))]
         m.d.comb += [Assert(dut.active_length >= 1), Assert(dut.active_length <= D),
-                     Assert(dut.index < dut.active_length)]
+                     Assert(dut.index < dut.active_length),
+                     # the registered wrap flag agrees with the compare it stands for
+                     Assert(dut.at_last == (dut.index == dut.active_length - 1))]
         return m
 
 
