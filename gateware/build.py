@@ -242,6 +242,8 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
             "delay_samples": {"channel_0": contract.max_delay,
                               "channels_1_to_n": contract.max_increment if cfg.channels > 1 else None},
             "latency_samples": contract.latency,
+            # ADC pins to DAC pins at zero delay: L + the board's I/O stages (docs/fixed_point.md)
+            "board_latency_samples": contract.board_latency,
         },
     }
     if not run_tools:

@@ -137,6 +137,8 @@ class Farm:
     stream_oversampling: float = 4.0    # stream rate ≥ this × max Doppler
     output_gain_db: float = 0.0         # level of the loudest windmill's peak
     interpolation: str = "fir"          # the replay block's stream interpolation: fir, linear or hold
+    adc_latency: int = 0                # RTS samples from the ADC's analogue input to its data pins
+    dac_latency: int = 0                # RTS samples from the DAC's data pins to its analogue output
 
     @property
     def sample_rate_hz(self) -> float:
@@ -148,7 +150,7 @@ class Farm:
 
 _RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
 _FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate",
-              "interpolation"} | _RADAR_KEYS
+              "interpolation", "adc_latency", "dac_latency"} | _RADAR_KEYS
 _INTERPOLATIONS = ("fir", "linear", "hold")
 _WINDMILL_KEYS = {
     "name", "range", "num_blades", "rpm", "rotor_angle", "start_angle", "num_rcs",
@@ -200,17 +202,18 @@ class _Reader:
             return default
         return float(value)
 
-    def integer(self, key, default=None, *, required=False, minimum=None):
+    def integer(self, key, default=None, *, required=False, minimum=None, unit=""):
+        what = f" ({unit})" if unit else ""
         if key not in self.table:
             if required:
-                self.problem(key, "is required")
+                self.problem(key, "is required" + what)
             return default
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int):
-            self.problem(key, f"must be an integer, not {value!r}")
+            self.problem(key, f"must be an integer{what}, not {value!r}")
             return default
         if minimum is not None and value < minimum:
-            self.problem(key, f"must be at least {minimum}, not {value!r}")
+            self.problem(key, f"must be at least {minimum}{what}, not {value!r}")
             return default
         return value
 
@@ -384,6 +387,8 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
     if oversampling is not None and oversampling < 2:
         top.problem("stream_oversampling", f"must be at least 2 (Nyquist), not {oversampling!r}")
     output_gain_db = top.number("output_gain_db", 0.0, unit="dB")
+    adc_latency = top.integer("adc_latency", 0, minimum=0, unit="RTS samples")
+    dac_latency = top.integer("dac_latency", 0, minimum=0, unit="RTS samples")
     interpolation = data.get("interpolation", "fir")
     if interpolation not in _INTERPOLATIONS:
         top.problem("interpolation", f"must be one of {', '.join(map(repr, _INTERPOLATIONS))}, "
@@ -438,7 +443,7 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
     if problems:
         raise ConfigError(problems, source)
     return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
-                interpolation)
+                interpolation, adc_latency, dac_latency)
 
 
 def load_config(path) -> Farm:

@@ -99,7 +99,9 @@ __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
             "SEGMENT_LATENCY", "GAIN_LATENCY", "CHAIN_LATENCY",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
-            "cmult_latency", "stream_latency", "ReplayContract"]
+            "cmult_latency", "stream_latency", "ReplayContract",
+            "DDR_INPUT_LATENCY", "DDR_OUTPUT_LATENCY", "BOARD_INPUT_LATENCY",
+            "BOARD_OUTPUT_LATENCY", "BOARD_LATENCY", "TARGETS", "path_latency"]
 
 #: The complex product is rounded by this many bits: Q15 x Q15 -> Q15.
 PRODUCT_SHIFT = STREAM_WIDTH - 1
@@ -203,6 +205,71 @@ GAIN_LATENCY = 2
 CHAIN_LATENCY = 1
 
 CMULT_FORMS = ("4mult", "3mult")
+
+# ---------------------------------------------------------------------------
+# The board around the replay block (``rast.gateware.top.SampleIO``), in
+# sample clocks (the board runs one sample per clock). Edges are the rising
+# edges of the sample clock. The block's L counts from the edge at which it
+# accepts input sample n to the edge at which it loads output sample n + L into
+# its output register; the board adds, from the ADC pins' sample to the DAC
+# pins' sample:
+#
+# ADC side: Amaranth 0.5 lowers ``io.DDRBuffer("i")`` on the ECP5 to one
+# IDDRX1F per pin and nothing else (``amaranth.vendor._lattice.DDRBufferECP5``:
+# no extra register on the data; only an output's OE gets two). The IDDRX1F
+# (Lattice's ECP5U simulation library) takes the pin into one register on the
+# rising edge t (Q0, the I half) and one on the falling edge t + 1/2 (Q1, the
+# Q half) and moves both into its output register on edge t + 1. The fabric
+# register ``x`` takes them on t + 2, and the block accepts ``x`` on t + 3.
+#
+# DAC side: the block's output register is loaded on edge e; the fabric
+# register ``y`` takes it on e + 1; the ODDRX1F (one per pin, again nothing
+# else on the data) takes D0/D1 on e + 2, passes them on at e + 3, moves D0
+# into its last register on the falling edge e + 3 1/2, and drives D0 on the
+# pin while the clock is high from e + 4 (D1 while it is low from e + 4 1/2).
+# Amaranth's lowering says the same: "The ODDRX1F buffer has two additional
+# pipeline stages" (its OE is delayed by two registers to stay aligned).
+#
+# Neither cell has a model in Yosys's ECP5 library (``cells_bb.v`` declares
+# both as black boxes); ``sim/board_io.py`` models them register for register
+# after Lattice's library and ``tests/test_cosim_board_io.py`` measures the
+# whole path: an impulse on the ADC pins at edge t reaches the DAC pins at
+# edge t + L + DELAY[0] + BOARD_LATENCY.
+# ---------------------------------------------------------------------------
+
+#: IDDRX1F: from the rising edge that samples the I half to the edge at which
+#: the fabric can take Q0/Q1 (one output register inside the cell, plus the
+#: edge into the fabric).
+DDR_INPUT_LATENCY = 2
+#: ODDRX1F: from the edge that takes D0/D1 to the rising edge from which D0 is
+#: on the pin (two internal stages).
+DDR_OUTPUT_LATENCY = 2
+#: ADC pin sample to the block's accepting edge: IDDRX1F (2) + fabric register ``x`` (1).
+BOARD_INPUT_LATENCY = DDR_INPUT_LATENCY + 1
+#: The block's output-register edge to the DAC pin sample: that register (1),
+#: fabric register ``y`` (1), ODDRX1F (2).
+BOARD_OUTPUT_LATENCY = 1 + 1 + DDR_OUTPUT_LATENCY
+#: Everything the board adds to the block's L, ADC pins to DAC pins: 7.
+BOARD_LATENCY = BOARD_INPUT_LATENCY + BOARD_OUTPUT_LATENCY
+
+#: Where a manifest is loaded: the board top (``rast.gateware.top.BoardTop``,
+#: ADC and DAC pins, converters) or the bare replay block (its stream ports).
+TARGETS = ("board", "block")
+
+
+def path_latency(block_latency: int, target: str, adc_latency: int = 0, dac_latency: int = 0) -> int:
+    """Fixed samples between a sample and its echo at zero programmed delay.
+
+    ``"block"``: the replay block's ``L`` from its input to its output port.
+    ``"board"``: from the analogue input of the ADC to the analogue output of
+    the DAC: ``adc_latency + BOARD_INPUT_LATENCY + L + BOARD_OUTPUT_LATENCY +
+    dac_latency`` (the converters' own pipelines, in RTS samples, are not in
+    the gateware; they come from the config's ``adc_latency``/``dac_latency``)."""
+    if target not in TARGETS:
+        raise ValueError(f"Target must be one of {', '.join(TARGETS)}, not {target!r}")
+    if target == "block":
+        return block_latency
+    return adc_latency + BOARD_INPUT_LATENCY + block_latency + BOARD_OUTPUT_LATENCY + dac_latency
 
 
 def guard_bits(channels: int) -> int:
@@ -329,6 +396,7 @@ class ReplayContract:
         --build``)."""
         return {**{k: getattr(self, k) for k in self.PARAMETERS},
                 "stream_banks": 2, "latency_samples": self.latency,
+                "board_latency_samples": self.board_latency,
                 "stream_latency_samples": self.stream_latency,
                 "max_phase_increment": self.max_phase_increment,
                 "min_stream_length": self.min_stream_length,
@@ -373,6 +441,13 @@ class ReplayContract:
         samples after its input sample. ``L = 3*N + 1 + 2 + cmult_latency``."""
         return (SEGMENT_LATENCY * self.channels + CHAIN_LATENCY + GAIN_LATENCY
                 + self.cmult_latency)
+
+    @property
+    def board_latency(self) -> int:
+        """Samples from the ADC pins' sample to the DAC pins' sample on the
+        board top at zero programmed delay: ``L + BOARD_LATENCY`` (converters
+        not included, see :func:`path_latency`)."""
+        return self.latency + BOARD_LATENCY
 
     def delay_depth(self, channel: int) -> int:
         """Words of the RAM of delay segment ``channel`` (power of two >= max + 2)."""

@@ -18,7 +18,8 @@ Access kinds of a field:
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS
+from .fixedpoint import (ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS,
+                         BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY, TARGETS, path_latency)
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ChannelInit",
            "ID_VALUE", "CHANNEL_BASE", "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP",
@@ -239,21 +240,59 @@ def _check_build(manifest, contract):
                          f"interpolates with {contract.interpolation}")
 
 
-def _channel_values(manifest, contract):
+#: The manifest's ``calibration`` keys of the converters (RTS samples; absent: 0).
+CALIBRATION_KEYS = {"adc_latency_samples": "ADC", "dac_latency_samples": "DAC"}
+
+
+def _calibration(manifest) -> dict:
+    """The converters' latencies from a manifest's ``calibration`` (0 when a
+    manifest has none: one written before the keys existed)."""
+    cal = manifest.get("calibration")
+    if cal is None:
+        return {k: 0 for k in CALIBRATION_KEYS}
+    if not isinstance(cal, dict):
+        raise ValueError(f"Manifest's 'calibration' must be an object, not {cal!r}")
+    out = {}
+    for key in CALIBRATION_KEYS:
+        v = cal.get(key, 0)
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ValueError(f"Manifest's calibration {key!r} must be a non-negative integer "
+                             f"(RTS samples), not {v!r}")
+        out[key] = v
+    return out
+
+
+def _fixed_latency(manifest, contract, target):
+    """``(total, text)``: the samples the path into which the manifest is
+    loaded adds at zero programmed delay, and their parts in words."""
+    if target not in TARGETS:
+        raise ValueError(f"Target must be one of {', '.join(TARGETS)}, not {target!r}")
+    L = contract.latency
+    cal = _calibration(manifest)
+    if target == "block":
+        return L, f"the replay block's fixed latency of {L} samples"
+    adc, dac = cal["adc_latency_samples"], cal["dac_latency_samples"]
+    total = path_latency(L, "board", adc, dac)
+    return total, (f"the board's fixed latency of {total} samples (replay block L {L} + board input "
+                   f"stage {BOARD_INPUT_LATENCY} + board output stage {BOARD_OUTPUT_LATENCY} + ADC "
+                   f"{adc} (adc_latency) + DAC {dac} (dac_latency))")
+
+
+def _channel_values(manifest, contract, target="block"):
     _check_build(manifest, contract)
     chans = manifest["registers"]["channels"]
     if len(chans) > contract.channels:
         raise ValueError(f"Manifest has {len(chans)} windmills but the replay block has "
                          f"{contract.channels} channels")
-    L = contract.latency
+    fixed, parts = _fixed_latency(manifest, contract, target)
     out = []
     for i, ch in enumerate(chans):
         delay = int(ch["delay_increment"])
         if i == 0:
-            if delay < L:
+            if delay < fixed:
                 raise ValueError(f"Common delay of {delay} samples (windmill {ch['windmill']!r}) is "
-                                 f"shorter than the replay block's fixed latency of {L} samples")
-            delay -= L
+                                 f"shorter than {parts}")
+            delay -= fixed
         maxd = contract.max_segment_delay(i)
         if not 0 <= delay <= maxd:
             what = "Common delay" if i == 0 else "Delay increment"
@@ -294,13 +333,30 @@ def _load_streams(manifest, stream_dir, streams, values):
 
 
 def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None = None, *,
-                                stream_dir=None, streams=None) -> list:
+                                stream_dir=None, streams=None, target: str = "block") -> list:
     """Register writes ``[(addr, value), ...]`` that load a manifest into a running block.
 
     The windmill of list position ``l`` goes to channel ``l``; the rest are
-    disabled. Channel 0's DELAY is the manifest's common delay minus the
-    block's fixed latency ``L`` (so the echo lands at ``delay_samples``);
-    channels 1.. get their increments. With ``stream_dir`` (the manifest's
+    disabled. Channel 0's DELAY is the manifest's common delay minus the fixed
+    latency of the path the block sits in, so that the echo lands at
+    ``delay_samples``; channels 1.. get their increments. ``target`` says
+    which path:
+
+    * ``"board"``: the board top (``rast.gateware.top.BoardTop``), loaded by
+      ``rast load`` or baked in for power-up. ``DELAY[0] = delay_samples - L
+      - BOARD_INPUT_LATENCY - BOARD_OUTPUT_LATENCY - adc - dac``, with the
+      converters' latencies from the manifest's ``calibration``
+      (``adc_latency_samples``, ``dac_latency_samples``; 0 when a manifest has
+      none): the echo leaves the DAC ``delay_samples`` after the pulse reached
+      the ADC.
+    * ``"block"`` (the default, the behaviour before ``target`` existed): the
+      bare replay block, as the cosimulations drive it (``rast.sim.e2e``,
+      ``rast.sim.scenario``): ``DELAY[0] = delay_samples - L``, the echo at
+      ``delay_samples`` counted at the block's own ports; the board's stages
+      and the converters are not in that path and are not subtracted.
+
+    A windmill closer than the fixed latency is refused, naming its parts.
+    With ``stream_dir`` (the manifest's
     folder, to read the ``.hex`` files) or ``streams`` (word lists) the
     streams are written too; each channel is disabled, its words written into
     the inactive bank, the bank switched, then re-enabled. Without streams only
@@ -309,7 +365,7 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     """
     contract = contract or ReplayContract(channels=len(manifest["registers"]["channels"]))
     rmap = register_map(contract)
-    values = _channel_values(manifest, contract)
+    values = _channel_values(manifest, contract, target)
     words = _load_streams(manifest, stream_dir, streams, values)
     w = []
     a = rmap.addr
@@ -335,10 +391,11 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
 
 
 def manifest_channel_inits(manifest: dict, contract: ReplayContract, stream_dir=None,
-                           streams=None) -> list:
+                           streams=None, *, target: str = "block") -> list:
     """Power-up contents (:class:`ChannelInit` per channel) from a manifest, for
-    a bitstream that replays it without a host."""
-    values = _channel_values(manifest, contract)
+    a bitstream that replays it without a host; ``target`` as for
+    :func:`manifest_to_register_writes` (``"board"`` for a board top)."""
+    values = _channel_values(manifest, contract, target)
     words = _load_streams(manifest, stream_dir, streams, values)
     if words is None:
         raise ValueError("Channel initialisation needs the streams: give stream_dir or streams")

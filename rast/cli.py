@@ -36,7 +36,7 @@ def cmd_stream(args) -> int:
     farm_streams = build_farm_streams(farm)
     if contract is not None:
         try:
-            manifest_to_register_writes(farm_streams.manifest(), contract)
+            manifest_to_register_writes(farm_streams.manifest(), contract, target="board")
         except ValueError as error:
             raise UserError(f"the streams do not fit the build {args.build}: {error}") from None
     try:

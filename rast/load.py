@@ -79,7 +79,7 @@ def plan_writes(manifest, contract, words=None):
     """The register writes of ``manifest`` for a block of ``contract``; a manifest
     that does not fit raises :class:`rast.errors.UserError` (nothing is sent)."""
     try:
-        return manifest_to_register_writes(manifest, contract, streams=words)
+        return manifest_to_register_writes(manifest, contract, streams=words, target="board")
     except ValueError as error:
         raise UserError(f"the manifest does not fit the bitstream's replay block ({contract.channels} "
                         f"channel(s), stream depth {contract.stream_depth}, maximum delay "

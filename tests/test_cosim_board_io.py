@@ -1,0 +1,105 @@
+"""Range calibration on the board's sample path, ADC pins to DAC pins.
+
+Cosimulates :class:`rast.gateware.top.BoardCore` (everything of the board top
+but the PLL: DDR cells, fabric registers, UART bridge, replay block) with the
+ECP5 cells it really instantiates (:mod:`rast.sim.board_io`). A manifest of one
+windmill with a constant stream is loaded through the UART bridge with the
+writes of ``manifest_to_register_writes(..., target="board")``; one impulse on
+the ADC pins must come out of the DAC pins exactly ``delay_samples`` later
+(less the converters' latencies, which lie outside the pins). With the old
+formula (``DELAY[0] = delay_samples - L``, the bare-block target) the same
+impulse comes out ``BOARD_LATENCY`` samples later than asked.
+"""
+
+import json
+
+import pytest
+
+from rast.model.fixedpoint import (BOARD_LATENCY, BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY,
+                                   ReplayContract, pack_iq)
+from rast.model.regmap import manifest_to_register_writes
+from rast.sim import runner
+from rast.sim.board_io import BUILD_ARGS, board_io_sources
+
+MODULE = "rast.sim.tb_board_io"
+BUILD = dict(channels=2, stream_depth=16, max_delay=62, max_increment=6, interpolation="hold")
+CLK_HZ = 20e6
+DIVISOR = 4
+DELAY = 40                       # samples: the windmill's delay_samples
+IMPULSE = (16384, -8192)         # (I, Q) on the ADC pins; the stream word is 32767 + 0j, gain 1.0
+ECHO = (16384, -8192)            # round_half_up(x * 32767, 15), gain 1.0: the same
+#: The replay block inside the simulated board (BoardCore states SAMPLE_RATE = its clock).
+CONTRACT = ReplayContract(**BUILD, sample_rate_hz=round(CLK_HZ))
+
+
+def _manifest(adc=None, dac=None):
+    words = [int(pack_iq([32767], [0])[0])] * 8
+    m = {
+        "sample_rate_hz": CLK_HZ, "interpolation": "hold",
+        "windmills": [{"name": "w0", "hex_file": "w0.hex", "length": len(words), "delay_samples": DELAY}],
+        "registers": {"channels": [{"windmill": "w0", "enable": 1, "length": len(words),
+                                    "phase_increment": 0, "gain": 1 << 16, "delay_increment": DELAY}]},
+    }
+    if adc is not None:
+        m["calibration"] = {"adc_latency_samples": adc, "dac_latency_samples": dac}
+    return m, [words]
+
+
+def test_board_latency_is_the_cells_and_registers():
+    assert (BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY, BOARD_LATENCY) == (3, 4, 7)
+
+
+def test_impulse_from_adc_pins_to_dac_pins():
+    contract = CONTRACT
+    cases = []          # (what, writes, expected pin-to-pin samples)
+    m, s = _manifest()
+    cases.append(("board, no calibration", manifest_to_register_writes(m, contract, streams=s,
+                                                                       target="board"), DELAY))
+    cases.append(("old formula (bare block)", manifest_to_register_writes(m, contract, streams=s,
+                                                                          target="block"),
+                  DELAY + BOARD_LATENCY))
+    m, s = _manifest(adc=2, dac=3)
+    # The converters' 5 samples lie outside the pins: pin to pin is 5 shorter,
+    # antenna to antenna exactly DELAY.
+    cases.append(("board, adc 2 + dac 3", manifest_to_register_writes(m, contract, streams=s,
+                                                                      target="board"), DELAY - 5))
+    window = DELAY + BOARD_LATENCY + 16
+    steps = [{"writes": w, "settle": 64, "impulse": list(IMPULSE), "window": window}
+             for _, w, _ in cases]
+
+    sources, top = board_io_sources(clk_hz=CLK_HZ, divisor=DIVISOR, **BUILD)
+    b = runner.build(sources, top, simulator="verilator", label="board_io", build_args=BUILD_ARGS)
+    run_dir = runner.run(b, MODULE, name="board-io-impulse", testcase="board_io", quiet=True,
+                         extra_env={"RAST_TB_PARAMS": json.dumps({"divisor": DIVISOR, "steps": steps})})
+    rep = json.loads((run_dir / "board_io.json").read_text())
+
+    assert rep["acks"] == rep["frames"] == rep["replies"], rep
+    assert rep["overflow"] == 0
+    # forwarded clocks high in the first half of every sample, DAC I marker with them
+    assert rep["clocks"] == [[1, 0, 1, 0]]
+    measured = []
+    for (what, _, expected), step in zip(cases, rep["steps"]):
+        assert step["iq_marker"] == [[1, 0]], what
+        assert len(step["nonzero"]) == 1, f"{what}: {step['nonzero']}"
+        at, i, q = step["nonzero"][0]
+        assert (i, q) == ECHO, what
+        assert at == expected, f"{what}: echo {at} samples after the ADC pin sample, expected {expected}"
+        measured.append(at)
+    # the old formula places every turbine BOARD_LATENCY samples too far out
+    assert measured[1] - measured[0] == BOARD_LATENCY
+
+
+def test_refuses_a_windmill_inside_the_board_latency():
+    contract = CONTRACT
+    m, s = _manifest(adc=2, dac=3)
+    fixed = contract.latency + BOARD_LATENCY + 5
+    m["registers"]["channels"][0]["delay_increment"] = fixed - 1
+    with pytest.raises(ValueError, match=rf"^Common delay of {fixed - 1} samples \(windmill 'w0'\) is shorter "
+                                         rf"than the board's fixed latency of {fixed} samples "
+                                         rf"\(replay block L {contract.latency} \+ board input stage 3 "
+                                         rf"\+ board output stage 4 \+ ADC 2 \(adc_latency\) \+ DAC 3 "
+                                         rf"\(dac_latency\)\)$"):
+        manifest_to_register_writes(m, contract, streams=s, target="board")
+    m["registers"]["channels"][0]["delay_increment"] = fixed
+    w = manifest_to_register_writes(m, contract, streams=s, target="board")
+    assert w   # DELAY[0] = 0 is the nearest a board places a windmill

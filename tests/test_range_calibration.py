@@ -1,0 +1,120 @@
+"""Range calibration from config to registers: the converters' latencies
+(``adc_latency``, ``dac_latency``), the board's own stages and the replay
+block's L, subtracted from the common delay when a manifest goes into a board.
+The pin-to-pin measurement is ``tests/test_cosim_board_io.py``."""
+
+import pytest
+
+from rast.model.config import ConfigError, parse_config
+from rast.model.fixedpoint import (BOARD_INPUT_LATENCY, BOARD_LATENCY, BOARD_OUTPUT_LATENCY,
+                                   ReplayContract, path_latency)
+from rast.model.regmap import manifest_channel_inits, manifest_to_register_writes, register_map
+from rast.model.stream import build_farm_streams
+
+
+def farm(**top):
+    data = {"sample_rate": 20, "radar_frequency": 5350, "interpolation": "hold",
+            "windmill": [{"name": "near", "range": 2.0, "num_blades": 3, "rpm": 15, "num_rcs": 1,
+                          "radius": [20.0], "rsc": [1.0]},
+                         {"name": "far", "range": 2.3, "num_blades": 3, "rpm": 20, "num_rcs": 1,
+                          "radius": [20.0], "rsc": [1.0]}]}
+    data.update(top)
+    return data
+
+
+def problems_of(data):
+    with pytest.raises(ConfigError) as info:
+        parse_config(data)
+    return info.value.problems
+
+
+def test_keys_default_to_zero_and_are_read():
+    f = parse_config(farm())
+    assert (f.adc_latency, f.dac_latency) == (0, 0)
+    f = parse_config(farm(adc_latency=9, dac_latency=4))
+    assert (f.adc_latency, f.dac_latency) == (9, 4)
+
+
+@pytest.mark.parametrize("value, message", [
+    (-1, "must be at least 0 (RTS samples), not -1"),
+    (2.5, "must be an integer (RTS samples), not 2.5"),
+    (True, "must be an integer (RTS samples), not True"),
+    ("3", "must be an integer (RTS samples), not '3'"),
+])
+@pytest.mark.parametrize("key", ["adc_latency", "dac_latency"])
+def test_bad_values_name_the_key(key, value, message):
+    assert problems_of(farm(**{key: value})) == [f"'{key}' {message}"]
+
+
+def test_flat_file_takes_the_keys():
+    f = parse_config({"sample_rate": 20, "radar_frequency": 5350, "range": 2.0, "num_blades": 3,
+                      "rpm": 15, "num_rcs": 1, "radius": [20.0], "rsc": [1.0], "adc_latency": 5})
+    assert f.adc_latency == 5 and f.dac_latency == 0
+
+
+def test_manifest_states_the_calibration():
+    m = build_farm_streams(parse_config(farm(adc_latency=9, dac_latency=4))).manifest()
+    assert m["calibration"] == {"adc_latency_samples": 9, "dac_latency_samples": 4,
+                                "board_input_latency_samples": BOARD_INPUT_LATENCY,
+                                "board_output_latency_samples": BOARD_OUTPUT_LATENCY}
+
+
+def _delay0(writes, contract):
+    return dict(writes)[register_map(contract).addr("DELAY", 0)]
+
+
+def test_board_target_subtracts_board_and_converters():
+    fs = build_farm_streams(parse_config(farm(adc_latency=9, dac_latency=4)))
+    m = fs.manifest()
+    c = ReplayContract(channels=2, stream_depth=1 << 15, max_delay=1022, max_increment=62,
+                       interpolation="hold", sample_rate_hz=20_000_000)
+    d = fs.streams[0].delay_samples                       # 267 samples at 2 km, 20 MHz
+    assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - 7 - 13
+    assert _delay0(manifest_to_register_writes(m, c, target="block"), c) == d - c.latency
+    assert _delay0(manifest_to_register_writes(m, c), c) == d - c.latency          # default: block
+    # the increments of the further channels are not touched
+    inc = dict(manifest_to_register_writes(m, c, target="board"))[register_map(c).addr("DELAY", 1)]
+    assert inc == fs.streams[1].delay_samples - d
+    inits = manifest_channel_inits(m, c, streams=[s.words for s in fs.streams], target="board")
+    assert inits[0].delay == d - c.latency - BOARD_LATENCY - 13 and inits[1].delay == inc
+
+
+def test_manifest_without_calibration_loads_as_zero_converters():
+    fs = build_farm_streams(parse_config(farm()))
+    m = fs.manifest()
+    del m["calibration"]
+    c = ReplayContract(channels=2, stream_depth=1 << 15, max_delay=1022, max_increment=62,
+                       interpolation="hold")
+    d = fs.streams[0].delay_samples
+    assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - BOARD_LATENCY
+
+
+@pytest.mark.parametrize("cal, message", [
+    ({"adc_latency_samples": -1}, r"^Manifest's calibration 'adc_latency_samples' must be a "
+                                  r"non-negative integer \(RTS samples\), not -1$"),
+    ({"dac_latency_samples": 1.5}, r"^Manifest's calibration 'dac_latency_samples' must be a "
+                                   r"non-negative integer \(RTS samples\), not 1.5$"),
+    ([3], r"^Manifest's 'calibration' must be an object, not \[3\]$"),
+])
+def test_bad_manifest_calibration_is_refused(cal, message):
+    m = build_farm_streams(parse_config(farm())).manifest()
+    m["calibration"] = cal
+    with pytest.raises(ValueError, match=message):
+        manifest_to_register_writes(m, ReplayContract(channels=2, stream_depth=1 << 15,
+                                                      interpolation="hold"), target="board")
+
+
+def test_unknown_target_is_refused():
+    m = build_farm_streams(parse_config(farm())).manifest()
+    with pytest.raises(ValueError, match=r"^Target must be one of board, block, not 'dac'$"):
+        manifest_to_register_writes(m, ReplayContract(channels=2, stream_depth=1 << 15,
+                                                      interpolation="hold"), target="dac")
+
+
+def test_contract_states_the_board_latency():
+    c = ReplayContract(channels=4)
+    assert c.board_latency == c.latency + 7 == 25
+    assert c.to_dict()["board_latency_samples"] == 25
+    assert ReplayContract.from_dict(c.to_dict()) == c
+    assert path_latency(c.latency, "block", 5, 5) == c.latency
+    assert path_latency(c.latency, "board", 2, 3) == c.latency + 7 + 5
