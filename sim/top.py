@@ -24,13 +24,11 @@ def port_map(addr_width: int) -> PortMap:
 def top_sources(channels: int, *, stream_depth: int, max_delay: int, max_increment: int,
                 interpolation: str = "fir", cmult_form: str = "4mult", src_aw: int = 22):
     """``({file: text}, toplevel)`` of the replay top inside ``rast_bulk``."""
-    from rast.verilog import verilog_text
+    from rast.gateware.verilog import verilog_text
     from rast.model.fixedpoint import ReplayContract
     from rast.model.regmap import register_map
-    c = ReplayContract(channels=channels, stream_depth=stream_depth, max_delay=max_delay,
-                       max_increment=max_increment, interpolation=interpolation, cmult_form=cmult_form)
-    text = verilog_text(channels, stream_depth=stream_depth, max_delay=max_delay,
-                        max_increment=max_increment, interpolation=interpolation,
-                        cmult_form=cmult_form, name=TOP_MODULE)
-    aw = register_map(c).addr_width
+    kwargs = dict(stream_depth=stream_depth, max_delay=max_delay, max_increment=max_increment,
+                  interpolation=interpolation, cmult_form=cmult_form)
+    text = verilog_text(channels, name=TOP_MODULE, **kwargs)
+    aw = register_map(ReplayContract(channels=channels, **kwargs)).addr_width
     return {f"{TOP_MODULE}.v": text, "rast_bulk.v": bulk_verilog(port_map(aw), src_aw=src_aw)}, "rast_bulk"

@@ -6,6 +6,7 @@ import re
 import pytest
 
 from rast import verilog as rv
+from rast.gateware import verilog as gv
 from rast.model.fixedpoint import ReplayContract, pack_iq
 
 
@@ -29,11 +30,11 @@ def test_lint_fails_on_unwaived_warning(tmp_path):
     bad = tmp_path / "bad.v"
     bad.write_text("module bad(input [3:0] a, output y);\n  assign y = a < 4'h0;\nendmodule\n")
     with pytest.raises(RuntimeError, match=r"UNSIGNED"):
-        rv.lint(bad, "bad")
+        gv.lint(bad, "bad")
 
 
 def test_waivers_have_reasons():
-    assert all(isinstance(w, str) and w.isupper() and len(why) > 20 for w, why in rv.VERILATOR_WAIVERS)
+    assert all(isinstance(w, str) and w.isupper() and len(why) > 20 for w, why in gv.VERILATOR_WAIVERS)
 
 
 def _modules(text):
@@ -103,6 +104,6 @@ def test_manifest_baked_into_power_up_state(tmp_path):
     assert _reg_init(regs, "phase_inc0_inc") == increment and _reg_init(regs, "phase_inc1_inc") == 0
 
     # Without the manifest every one of them powers up empty.
-    plain = _modules(rv.verilog_text(2, stream_depth=16, max_delay=126, max_increment=2))
+    plain = _modules(gv.verilog_text(2, stream_depth=16, max_delay=126, max_increment=2))
     assert _memory_init(plain["wind_farm_replay.stream0.mem"]) == [0] * (2 * 16)
     assert _reg_init(plain["wind_farm_replay.regs"], "gain0_gain") == 0

@@ -13,6 +13,7 @@ import os
 import subprocess
 from pathlib import Path
 
+from rast.gateware.verilog import setup_verilator, verilator_warning_args
 from rast.sim import runner
 
 __all__ = ["build_harness"]
@@ -22,7 +23,7 @@ HERE = Path(__file__).resolve().parent
 
 def build_harness(sources: dict[str, str], toplevel: str = "rast_bulk", jobs: int = 2) -> Path:
     """Return the path of the harness executable for ``sources``."""
-    runner.setup_verilator()
+    setup_verilator()
     main = (HERE / "main.cpp").read_text()
     h = hashlib.sha256(main.encode())
     for k in sorted(sources):
@@ -38,8 +39,7 @@ def build_harness(sources: dict[str, str], toplevel: str = "rast_bulk", jobs: in
         for k, v in sources.items():
             (bdir / k).write_text(v)
             paths.append(str(bdir / k))
-        waivers = [f"-Wno-{w[0] if isinstance(w, (tuple, list)) else w}" for w in runner.verilator_waivers()]
-        cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs), "-Wall", *waivers,
+        cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs), *verilator_warning_args(),
                "-DRAST_EXTERNAL_CLOCK", "--top-module", toplevel, "-o", "harness",
                # the wheel's verilated.mk leaves the PCH include flag empty
                "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",

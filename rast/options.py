@@ -1,0 +1,34 @@
+"""Command-line options shared by subcommands: the replay block's parameters."""
+
+from __future__ import annotations
+
+__all__ = ["REPLAY_OPTIONS", "add_replay_arguments", "replay_kwargs"]
+
+#: The :class:`rast.model.fixedpoint.ReplayContract` parameters the options set (but ``channels``).
+REPLAY_OPTIONS = ("stream_depth", "max_delay", "max_increment", "interpolation", "cmult_form")
+
+
+def add_replay_arguments(parser, *, channels: int) -> None:
+    """Add ``--channels`` (default ``channels``), ``--stream-depth``, ``--max-delay``,
+    ``--max-increment``, ``--interpolation`` and ``--cmult-form`` to ``parser`` (a
+    parser or an argument group); the defaults are :class:`ReplayContract`'s."""
+    from rast.model.fixedpoint import ReplayContract
+    d = ReplayContract()
+    parser.add_argument("--channels", type=int, default=channels,
+                        help=f"windmill channels N (default {channels})")
+    parser.add_argument("--stream-depth", type=int, default=d.stream_depth,
+                        help=f"stream words per RAM bank (default {d.stream_depth})")
+    parser.add_argument("--max-delay", type=int, default=d.max_delay,
+                        help=f"largest common delay, samples (default {d.max_delay})")
+    parser.add_argument("--max-increment", type=int, default=d.max_increment,
+                        help=f"largest delay increment of channels 1.., samples (default {d.max_increment})")
+    parser.add_argument("--interpolation", choices=("fir", "linear", "hold"), default=d.interpolation,
+                        help="stream interpolation: fir (default, images below -70 dB), linear, "
+                             "or hold (exact for one word per sample)")
+    parser.add_argument("--cmult-form", choices=("4mult", "3mult"), default=d.cmult_form,
+                        help=f"complex multiplier form, same results (default {d.cmult_form})")
+
+
+def replay_kwargs(args) -> dict:
+    """The replay block's parameters from parsed options, ``channels`` left out."""
+    return {name: getattr(args, name) for name in REPLAY_OPTIONS}
