@@ -62,8 +62,11 @@ class RegisteredRAM(wiring.Component):
     the address is not pulled towards the RAMs it fans out to. The read stage
     has no defined power-up value, so until it has been loaded (the first
     enabled cycle, the first two with ``addr_reg``) ``r_data`` stays 0. ``r_data`` is reset
-    with the domain. Writes (``w_en``) take effect at the clock edge; a read
-    of the address being written returns the old word.
+    with the domain. Writes (``w_en``) take effect at the clock edge. A read
+    of the address being written in the same cycle returns the old word in
+    the behavioural path only: a DP16KD does not promise it (no
+    read-before-write across ports), so a design must not rely on it
+    (docs/netlist_sim.md).
 
     Parameters
     ----------
@@ -73,6 +76,9 @@ class RegisteredRAM(wiring.Component):
         Yosys's inference (the primitive path has no INITVAL packing).
     addr_reg : bool
         Register the read address first (latency 3).
+    block_ram : bool
+        On ECP5, DP16KD primitives (default); ``False`` leaves a small memory
+        to Yosys (distributed RAM for a few dozen words).
 
     Members
     -------
@@ -80,7 +86,7 @@ class RegisteredRAM(wiring.Component):
     r_en : In(1), r_addr : In(range(depth)), r_data : Out(width)
     """
 
-    def __init__(self, width, depth, init=(), *, addr_reg=False):
+    def __init__(self, width, depth, init=(), *, addr_reg=False, block_ram=True):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"RAM width must be a positive integer, not {width!r}")
         if not isinstance(depth, int) or isinstance(depth, bool) or depth < 2:
@@ -88,7 +94,10 @@ class RegisteredRAM(wiring.Component):
         if not isinstance(addr_reg, bool):
             raise TypeError(f"Address register must be a bool, not {addr_reg!r}")
         self._width, self._depth, self._init = width, depth, list(init)
+        if not isinstance(block_ram, bool):
+            raise TypeError(f"Block RAM must be a bool, not {block_ram!r}")
         self._addr_reg = addr_reg
+        self._block_ram = block_ram
         super().__init__({
             "w_en": In(1), "w_addr": In(range(depth)), "w_data": In(width),
             "r_en": In(1), "r_addr": In(range(depth)), "r_data": Out(width),
@@ -124,11 +133,11 @@ class RegisteredRAM(wiring.Component):
     def block_rams(self, platform=None):
         """DP16KD used on ECP5 (0 when the behavioural path is taken)."""
         mode = dp16kd_mode(self._width, self._depth)
-        return mode[1] if mode and not self._init else 0
+        return mode[1] if mode and not self._init and self._block_ram else 0
 
     def elaborate(self, platform):
         mode = dp16kd_mode(self._width, self._depth)
-        if is_ecp5(platform) and mode is not None and not self._init:
+        if is_ecp5(platform) and mode is not None and not self._init and self._block_ram:
             return self._elaborate_ecp5(*mode)
         m = Module()
         m.submodules.storage = mem = Memory(shape=unsigned(self._width), depth=self._depth,
@@ -152,6 +161,13 @@ class RegisteredRAM(wiring.Component):
         m.d.comb += [wa.eq(self.w_addr << s), ra.eq(r_addr << s)]
         if w == 18:                              # ADA[1:0] are the byte write enables
             m.d.comb += wa[:2].eq(0b11)
+        # OCEB is high in reset too: the block RAM's synchronous reset of its output
+        # register only acts at a clock edge with OCE high (the reading of TN1264
+        # taken in docs/netlist_sim.md); without it a reset while the read stage
+        # is not primed left the old word on r_data (the netlist cosimulation,
+        # tests/test_netlist_ram.py, showed it).
+        oce = Signal()
+        m.d.comb += oce.eq((self.r_en & primed) | ResetSignal("sync"))
         padded_w = Signal(slices * w)
         padded_r = Signal(slices * w)
         m.d.comb += [padded_w.eq(self.w_data), self.r_data.eq(padded_r)]
@@ -180,7 +196,7 @@ class RegisteredRAM(wiring.Component):
                 p_GSR="DISABLED",
                 i_CLKA=ClockSignal("sync"), i_CEA=Const(1), i_OCEA=Const(1), i_WEA=self.w_en,
                 i_RSTA=Const(0),
-                i_CLKB=ClockSignal("sync"), i_CEB=self.r_en, i_OCEB=self.r_en & primed, i_WEB=Const(0),
+                i_CLKB=ClockSignal("sync"), i_CEB=self.r_en, i_OCEB=oce, i_WEB=Const(0),
                 i_RSTB=ResetSignal("sync"),
                 **ports)
         return m

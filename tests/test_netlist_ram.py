@@ -1,0 +1,33 @@
+"""RegisteredRAM's ECP5 netlist (DP16KD model) against its behavioural Verilog, cycle by cycle:
+the two cases where a block RAM and the behavioural memory are most likely to part."""
+
+import pytest
+
+from rast.sim import runner
+from rast.sim.netlist import ram_lockstep_sources
+
+MODULE = "rast.sim.tb_netlist"
+# 1024 x 32: two DP16KD in x18 mode; 4096 x 8: two in x4 mode (the default build's delay lines)
+SHAPES = {"x18": (32, 1024), "x4": (8, 4096)}
+
+
+def _run(shape, addr_reg, **tb):
+    width, depth = SHAPES[shape]
+    sources, top = ram_lockstep_sources(width, depth, addr_reg=addr_reg)
+    b = runner.build(sources, top, simulator="verilator", label=f"ram-lockstep-{shape}")
+    runner.run(b, MODULE, name=f"lockstep-{shape}", testcase="lockstep", quiet=True,
+               extra_env={"RAST_TB_PARAMS": __import__("json").dumps(dict(width=width, depth=depth, **tb))})
+
+
+@pytest.mark.parametrize("shape", list(SHAPES))
+@pytest.mark.parametrize("addr_reg", [False, True], ids=["latency2", "latency3"])
+def test_reset_mid_run(shape, addr_reg):
+    """Resets at random cycles, many while the read stage is not primed: r_data equal every cycle."""
+    _run(shape, addr_reg, seed=3, cycles=3000, resets=60, same_word=0)
+
+
+def test_read_of_the_word_being_written_differs():
+    """The behavioural RAM returns the old word; a DP16KD does not promise it (no read-before-write
+    across ports): the netlist cosimulation must catch a design that relies on it."""
+    with pytest.raises(runner.SimulationFailed, match="netlist r_data"):
+        _run("x18", False, seed=5, cycles=400, resets=0, same_word=10)
