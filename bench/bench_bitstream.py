@@ -18,15 +18,11 @@ from rast.gateware.build import BuildConfig, build
 
 #: label -> (what it answers, BuildConfig keyword arguments)
 LADDER = {
-    "n8_100": ("default: 8 channels at 100 MHz", dict(channels=8, clock_mhz=100)),
-    "n8_150": ("8 channels asked for 150 MHz: how fast does it go", dict(channels=8, clock_mhz=150)),
-    "n8_200": ("8 channels asked for 200 MHz", dict(channels=8, clock_mhz=200)),
-    "n9_100": ("9 channels at 100 MHz", dict(channels=9, clock_mhz=100)),
-    "n10_100": ("10 channels at 100 MHz", dict(channels=10, clock_mhz=100)),
-    "n11_100": ("most channels that fit with 4096-word streams (block RAM bound)",
-                dict(channels=11, clock_mhz=100)),
-    "n5_8k_100": ("seed 4.3.3 turbines: 8192-word streams (<= 7775 words at 4x Doppler)",
-                  dict(channels=5, clock_mhz=100, stream_depth=8192)),
+    "n8_20": ("default: 8 FIR channels at the examples' 20 MS/s, 65536-word pool", dict()),
+    "n4_100": ("wide band: 4 FIR channels at 100 MS/s", dict(channels=4, clock_mhz=100)),
+    "n8_100": ("8 FIR channels at 100 MS/s", dict(channels=8, clock_mhz=100)),
+    "n8_20_80k": ("8 FIR channels, the largest pool beside them (81920 words)",
+                  dict(pool_words=81920)),
 }
 
 ROOT = Path(__file__).resolve().parent.parent / "build" / "bench_bitstream"
@@ -37,7 +33,7 @@ def row(label, what, rep):
     cp = t.get("critical_path") or {}
     lim = f"{cp.get('from', '?')} -> {cp.get('to', '?')} ({cp.get('routing_ns', 0):.1f} of " \
           f"{cp.get('delay_ns', 0):.1f} ns routing)"
-    return (f"{label:<10} {rep['config']['channels']:>3} {rep['config']['stream_depth']:>6} "
+    return (f"{label:<10} {rep['config']['channels']:>3} {rep['config']['pool_words']:>6} "
             f"{rep['config']['clock_mhz']:>6.0f} {t['fmax_mhz']:>7.1f} {'yes' if t['met'] else 'NO':>4} "
             f"{r['luts']['used']:>6} {r['ffs']['used']:>6} {r['dsps']['used']:>4}/{r['dsps']['available']} "
             f"{r['block_rams']['used']:>4}/{r['block_rams']['available']}  {lim}\n"
@@ -46,21 +42,22 @@ def row(label, what, rep):
 
 def seed_capacity():
     """Turbines of the seed's section 4.3 scenarios one LFE5U-85F holds at once
-    (stream rate 4 x max Doppler, C band), from the block RAM budget."""
-    from rast.gateware.capacity import max_channels
+    (stream rate 4 x max Doppler, C band, FIR), from the block RAM budget: all
+    in the pool, with room to reload one while all play."""
+    from rast.gateware.capacity import turbines_per_device
     from rast.model.config import load_config
     from rast.model.stream import build_farm_streams
     examples = Path(__file__).resolve().parent.parent / "examples"
-    print("\nturbines per LFE5U-85F (two 32-bit banks per stream, 4x max Doppler):")
-    for name in ("sec4_3_3_three_blades", "sec4_3_3_realistic", "sec4_3_4_four_windmills"):
+    print("\nturbines per LFE5U-85F (stream pool, one stream's room to reload, 4x max Doppler, FIR):")
+    for name in ("sec4_3_3_three_blades", "sec4_3_3_realistic", "sec4_3_4_four_windmills",
+                 "two_windmills"):
         farm = load_config(examples / f"{name}.toml")
         for s in build_farm_streams(farm).streams:
             words = s.plan.length
-            depth = 1 << (words - 1).bit_length()
-            n, lim = max_channels(stream_depth=max(depth, 2))
+            n, pool, lim = turbines_per_device(words)
             print(f"  {name:<24} {s.windmill.name:<5} {s.windmill.rpm:>3g} rpm "
                   f"{s.windmill.num_blades} blade(s) {s.plan.max_doppler_hz:>6.0f} Hz "
-                  f"{words:>6} words -> depth {depth:>5}: {n:>2} per device ({lim})")
+                  f"{words:>6} words: {n:>2} per device, pool {pool} words (next one: {lim})")
 
 
 def main():
@@ -72,7 +69,7 @@ def main():
     if args.capacity:
         seed_capacity()
         return
-    print(f"{'label':<10} {'N':>3} {'depth':>6} {'asked':>6} {'fmax':>7} {'met':>4} {'LUTs':>6} "
+    print(f"{'label':<10} {'N':>3} {'pool':>6} {'asked':>6} {'fmax':>7} {'met':>4} {'LUTs':>6} "
           f"{'FFs':>6} {'DSPs':>8} {'BRAMs':>8}  critical path")
     for label, (what, kw) in LADDER.items():
         if args.only and label not in args.only:

@@ -46,7 +46,7 @@ def main(argv=None) -> int:
     config = str(Path(args.config).resolve())
     e = prepare(config, args.seconds, channels=args.channels)
     c = e.scenario.contract
-    sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
+    sources, top = top_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
                                max_increment=c.max_increment)
     print(f"job: {Path(config).name}, {c.channels} channels, {e.pulse.n_pulses} pulses = "
           f"{args.seconds:g} s of radar time, {e.info['samples']:,} RTS samples at "

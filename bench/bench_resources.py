@@ -54,19 +54,19 @@ def main(argv=None):
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("build/bench"))
     ap.add_argument("--cmult-form", default="4mult")
-    ap.add_argument("--stream-depth", type=int, default=4096,
+    ap.add_argument("--pool-words", type=int, default=4096,
                     help="words per bank (the LFE5U-85F has 208 DP16KD: N=16 needs 2048)")
     ap.add_argument("--interpolation", choices=("fir", "linear", "hold"), default="fir")
     args = ap.parse_args(argv)
     jobs = {f"cmult_{f}": (lambda f=f: ComplexMultiplier(form=f)) for f in ("4mult", "3mult")}
     for n in args.channels:
         jobs[f"replay_N{n}"] = (lambda n=n: WindFarmReplay(n, cmult_form=args.cmult_form,
-                                                           stream_depth=args.stream_depth,
+                                                           pool_words=args.pool_words,
                                                            interpolation=args.interpolation))
     with ThreadPoolExecutor(args.jobs) as ex:
         futs = {k: ex.submit(synth, k, make(), args.out) for k, make in jobs.items()}
         res = {k: f.result() for k, f in futs.items()}
-    print(f"stream_depth={args.stream_depth} (x2 banks), max_delay=4094, max_increment=1022, "
+    print(f"pool_words={args.pool_words} (x2 banks), max_delay=4094, max_increment=1022, "
           f"cmult_form={args.cmult_form}, interpolation={args.interpolation}")
     hdr = ["design", "LUT4", "FF", "CCU2C", "MULT18X18D", "ALU54B", "DP16KD", "DPR16X4", "synth s"]
     print("| " + " | ".join(hdr) + " |")

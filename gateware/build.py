@@ -20,7 +20,7 @@ from dataclasses import dataclass, field, asdict
 from pathlib import Path
 
 from ..model.fixedpoint import ReplayContract
-from .capacity import DEVICE_BLOCKS, channel_blocks, channel_dsps
+from .capacity import DEVICE_BLOCKS, total_blocks, channel_dsps
 from .platforms import make_platform
 from .pll import pll_params
 from .top import BoardTop, DEFAULT_BAUD
@@ -49,21 +49,20 @@ class BuildConfig:
     channels: int = 8
     clock_mhz: float = 20.0          # the RTS sample clock: the examples' (seed Table 4.1: 20 MHz)
     baud: int = DEFAULT_BAUD
-    stream_depth: int = 4096
-    max_delay: int = 4094
-    max_increment: int = 1022
-    interpolation: str = "fir"
-    cmult_form: str = "4mult"
+    # the replay block's parameters, defaults as the contract's
+    pool_words: int = ReplayContract.pool_words
+    max_delay: int = ReplayContract.max_delay
+    max_increment: int = ReplayContract.max_increment
+    interpolation: str = ReplayContract.interpolation
+    cmult_form: str = ReplayContract.cmult_form
     seed: int = 1
     extra_nextpnr: list = field(default_factory=list)
 
     def contract(self) -> ReplayContract:
-        return ReplayContract(channels=self.channels, stream_depth=self.stream_depth,
-                              max_delay=self.max_delay, max_increment=self.max_increment,
-                              interpolation=self.interpolation, cmult_form=self.cmult_form)
+        return ReplayContract(**self.replay_kwargs())
 
     def replay_kwargs(self):
-        return dict(channels=self.channels, stream_depth=self.stream_depth,
+        return dict(channels=self.channels, pool_words=self.pool_words,
                     max_delay=self.max_delay, max_increment=self.max_increment,
                     interpolation=self.interpolation, cmult_form=self.cmult_form)
 
@@ -188,9 +187,9 @@ def check(cfg: BuildConfig):
     # LFE5U, LFE5UM and LFE5UM5G of one size hold the same block RAMs.
     blocks = DEVICE_BLOCKS.get("LFE5U-" + platform.device.rsplit("-", 1)[-1])
     if blocks is not None:
-        need = sum(channel_blocks(contract, ch) for ch in range(contract.channels))
+        need = total_blocks(contract)
         if need > blocks[0]:
-            raise ValueError(f"{contract.channels} channels with {contract.stream_depth}-word streams and "
+            raise ValueError(f"{contract.channels} channels with a {contract.pool_words}-word stream pool and "
                              f"delays up to {contract.max_delay}/{contract.max_increment} samples "
                              f"({contract.interpolation} interpolation) need {need} DP16KD block RAMs; "
                              f"the {platform.device} has {blocks[0]}")
@@ -225,7 +224,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
         "target": {"board": cfg.board, "device": platform.device, "package": platform.package,
                    "speed": str(platform.speed)},
         "config": {"channels": cfg.channels, "clock_mhz": cfg.clock_mhz, "baud": cfg.baud,
-                   "stream_depth": cfg.stream_depth, "max_delay": cfg.max_delay,
+                   "pool_words": cfg.pool_words, "max_delay": cfg.max_delay,
                    "max_increment": cfg.max_increment, "interpolation": cfg.interpolation,
                    "cmult_form": cfg.cmult_form, "seed": cfg.seed},
         "pll": {"f_in_mhz": top.pll.f_in_mhz, "f_out_mhz": top.pll.f_out_mhz,
@@ -237,8 +236,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
         "build": ReplayContract(**cfg.replay_kwargs(),
                                 sample_rate_hz=round(top.pll.f_out_mhz * 1e6)).to_dict(),
         "memory": {
-            "stream_words_per_bank": contract.stream_depth,
-            "stream_banks": 2,
+            "pool_words": contract.pool_words,
             "delay_samples": {"channel_0": contract.max_delay,
                               "channels_1_to_n": contract.max_increment if cfg.channels > 1 else None},
             "latency_samples": contract.latency,

@@ -45,7 +45,7 @@ class ReplaySystem(wiring.Component):
     timeout_s : float
         Frame timeout of the bridge.
     **replay_kwargs
-        Passed to :class:`WindFarmReplay` (``channels``, ``stream_depth``, ...).
+        Passed to :class:`WindFarmReplay` (``channels``, ``pool_words``, ...).
 
     Members
     -------

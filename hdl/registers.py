@@ -39,9 +39,10 @@ class RegisterFile(wiring.Component):
     enable, gain, delay, length, increment : Out, one per channel
         ``delay`` is the applied delay (copied from the DELAY registers by APPLY).
     swap_req, swap_force : Out(1) per channel, strobes of a CTRL write
+    base : Out(pool address) per channel
     pending_next, bank_next : In(1) per channel, from the stream replays
-    wr_en, wr_bank : Out(1) per channel; wr_addr, wr_data : Out (shared)
-        Registered stream RAM write (one cycle after the STREAM_DATA write).
+    wr_en : Out(1), wr_addr : Out(pool address), wr_data : Out(32)
+        Registered pool write (one cycle after the STREAM_DATA write).
     overflow_set : In(1)
         An output sample saturated in this cycle.
     overflow : Out(1)
@@ -55,7 +56,8 @@ class RegisterFile(wiring.Component):
         c = rmap.contract
         N = c.channels
         self._widths = {name: rmap.reg(name, 0).field(fname).width for name, fname in
-                        (("GAIN", "gain"), ("LENGTH", "length"), ("PHASE_INC", "inc"))}
+                        (("GAIN", "gain"), ("LENGTH", "length"), ("PHASE_INC", "inc"),
+                                           ("BASE", "base"))}
         self._dw = [rmap.reg("DELAY", l).field("delay").width for l in range(N)]
         super().__init__({
             "bus": In(BusSignature(rmap.addr_width)),
@@ -63,14 +65,14 @@ class RegisterFile(wiring.Component):
             "gain": Out(self._widths["GAIN"]).array(N),
             "length": Out(self._widths["LENGTH"]).array(N),
             "increment": Out(self._widths["PHASE_INC"]).array(N),
+            "base": Out(self._widths["BASE"]).array(N),
             "delay": Out(max(self._dw)).array(N),
             "swap_req": Out(1).array(N),
             "swap_force": Out(1).array(N),
             "pending_next": In(1).array(N),
             "bank_next": In(1).array(N),
-            "wr_en": Out(1).array(N),
-            "wr_bank": Out(1).array(N),
-            "wr_addr": Out((c.stream_depth - 1).bit_length()),
+            "wr_en": Out(1),
+            "wr_addr": Out(c.pool_address_width),
             "wr_data": Out(2 * STREAM_WIDTH),
             "overflow_set": In(1),
             "overflow": Out(1),
@@ -123,6 +125,7 @@ class RegisterFile(wiring.Component):
                 self.gain[l].eq(storage[("GAIN", l, "gain")]),
                 self.length[l].eq(storage[("LENGTH", l, "length")]),
                 self.increment[l].eq(storage[("PHASE_INC", l, "inc")]),
+                self.base[l].eq(storage[("BASE", l, "base")]),
                 self.swap_force[l].eq(force),
                 self.swap_req[l].eq(wsel(ctrl) & swap_written & ~force),
             ]
@@ -132,13 +135,10 @@ class RegisterFile(wiring.Component):
                 m.d.sync += applied.eq(storage[("DELAY", l, "delay")])
             m.d.comb += self.delay[l].eq(applied)
 
-        # Stream write path, registered.
-        sel = storage[("STREAM_SEL", None, "channel")]
+        # Pool write path, registered.
         addr = storage[("STREAM_ADDR", None, "addr")]
         data_w = wsel(rmap.reg("STREAM_DATA"))
-        for l in range(N):
-            m.d.sync += [self.wr_en[l].eq(data_w & (sel == l) & ~self.pending_next[l]),
-                         self.wr_bank[l].eq(~self.bank_next[l])]
+        m.d.sync += self.wr_en.eq(data_w)
         with m.If(data_w):
             m.d.sync += [self.wr_addr.eq(addr), self.wr_data.eq(bus.w_data),
                          addr.eq(addr + 1)]

@@ -1,25 +1,28 @@
 """The wind-farm replay block of seed Fig. 2.2: N channels, one output."""
 
-from amaranth.hdl import Module, Signal, Mux, signed, unsigned
-from amaranth.lib import wiring, stream
+from amaranth.hdl import Module, Signal, Mux, Cat, signed
+from amaranth.lib import wiring, stream, data
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .cmult import ComplexMultiplier
 from .delay_line import DelayLine
-from .stream_replay import StreamReplay
+from .stream_replay import StreamReplay, FETCH_TAG
+from .stream_pool import StreamPool
 from .registers import BusSignature, RegisterFile
 from .ecp5_primitives import RegisteredMultiplier
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, STREAM_WIDTH, OUTPUT_WIDTH,
                                 PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, SEGMENT_LATENCY,
-                                PHASE_FRAC_BITS)
-from ..model.regmap import register_map, ChannelInit
+                                POOL_FETCH_LATENCY)
+from ..model.regmap import register_map
+from ..model.powerup import ChannelInit, pool_contents
 
 __all__ = ["WindFarmReplay"]
 
 
 class WindFarmReplay(wiring.Component):
-    """Replay block: delay chain, per-channel stream x gain, sum, saturation.
+    """Replay block: delay chain, per-channel stream x gain, sum, saturation;
+    the streams in one pool, fetched into per-channel caches by a scan.
 
     The data path advances once per accepted input sample; each input sample
     gives exactly one output sample, ``latency`` (plus the programmed delays)
@@ -30,10 +33,10 @@ class WindFarmReplay(wiring.Component):
     ----------
     channels : int
         N, 1 to 64.
-    stream_depth, max_delay, max_increment, interpolation, cmult_form, sample_rate_hz :
+    pool_words, max_delay, max_increment, interpolation, cmult_form, sample_rate_hz :
         See :class:`rast.model.fixedpoint.ReplayContract`.
     init : list of ChannelInit, optional
-        Power-up streams (bank 0) and register values.
+        Power-up streams (in the pool at their bases) and register values.
 
     Members
     -------
@@ -45,9 +48,9 @@ class WindFarmReplay(wiring.Component):
         Sticky saturation flag (cleared by reading STATUS).
     """
 
-    def __init__(self, channels=4, *, stream_depth=4096, max_delay=4094, max_increment=1022,
+    def __init__(self, channels=4, *, pool_words=65536, max_delay=4094, max_increment=1022,
                  interpolation="fir", cmult_form="4mult", sample_rate_hz=0, init=None):
-        self._contract = ReplayContract(channels=channels, stream_depth=stream_depth,
+        self._contract = ReplayContract(channels=channels, pool_words=pool_words,
                                         max_delay=max_delay, max_increment=max_increment,
                                         interpolation=interpolation, cmult_form=cmult_form,
                                         sample_rate_hz=sample_rate_hz)
@@ -58,10 +61,8 @@ class WindFarmReplay(wiring.Component):
         for k, ini in enumerate(init):
             if not isinstance(ini, ChannelInit):
                 raise TypeError(f"Initial contents of channel {k} must be a ChannelInit, not {ini!r}")
-            if len(ini.words) > stream_depth:
-                raise ValueError(f"Initial stream of channel {k} must have at most {stream_depth} "
-                                 f"words, not {len(ini.words)}")
         self._init = init + [ChannelInit()] * (channels - len(init))
+        self._pool_init = pool_contents(init, pool_words) if any(ini.words for ini in init) else []
         self._rmap = register_map(self._contract, self._init)
         super().__init__({
             "i": In(stream.Signature(IQ(INPUT_WIDTH))),
@@ -103,14 +104,35 @@ class WindFarmReplay(wiring.Component):
         with m.Elif(self.o.ready):
             m.d.sync += self.o.valid.eq(0)
 
+        # The pool: host writes from the register file; fetches from a scan
+        # that offers each channel in turn one request per clock (one-hot
+        # ``scan``), registered, and answers broadcast to the channels,
+        # registered, with the channel in the tag.
+        fetch_tag = data.StructLayout({"fetch": FETCH_TAG, "channel": range(max(2, N))})
+        m.submodules.pool = pool = StreamPool(c.pool_words, fetch_tag.size, init=self._pool_init)
+        m.d.comb += [pool.w_en.eq(regs.wr_en), pool.w_addr.eq(regs.wr_addr), pool.w_data.eq(regs.wr_data)]
+        scan = Signal(N, init=1)
+        m.d.sync += scan.eq(scan.rotate_left(1))
+        req_valid = Signal()
+        req_addr = Signal.like(pool.r_addr)
+        req_tag = Signal(fetch_tag)
+        fill_valid = Signal()
+        fill_tag = Signal(fetch_tag)
+        fill_data = Signal.like(pool.d_data)
+        m.d.comb += [pool.r_valid.eq(req_valid), pool.r_addr.eq(req_addr), pool.r_tag.eq(req_tag)]
+        m.d.sync += [fill_valid.eq(pool.d_valid), fill_tag.eq(pool.d_tag), fill_data.eq(pool.d_data)]
+        # Grant to cache write: request register, the pool, answer register.
+        assert 1 + pool.latency + 1 <= POOL_FETCH_LATENCY, "the contract's fetch latency is too short"
+        grants = []
+
         SW = c.sum_width
         prev = self.i.payload.as_value()
         chain = None
         for l in range(N):
             seg = DelayLine(2 * INPUT_WIDTH, c.max_segment_delay(l))
-            # Power-up LENGTH and PHASE_INC as the register map clamps them.
-            sr = StreamReplay(c.stream_depth, interpolation=c.interpolation,
-                              init=self._init[l].words,
+            # Power-up BASE, LENGTH and PHASE_INC as the register map clamps them.
+            sr = StreamReplay(c.pool_words, channels=N, interpolation=c.interpolation,
+                              init_base=self._rmap.reg("BASE", l).field("base").reset,
                               init_length=self._rmap.reg("LENGTH", l).field("length").reset,
                               init_increment=self._rmap.reg("PHASE_INC", l).field("inc").reset)
             cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
@@ -120,13 +142,21 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += [
                 seg.en.eq(ce), seg.i.eq(prev), seg.delay.eq(regs.delay[l]),
                 sr.en.eq(ce), sr.length.eq(regs.length[l]), sr.increment.eq(regs.increment[l]),
+                sr.base.eq(regs.base[l]),
                 sr.swap_req.eq(regs.swap_req[l]), sr.swap_force.eq(regs.swap_force[l]),
-                sr.wr_en.eq(regs.wr_en[l]), sr.wr_bank.eq(regs.wr_bank[l]),
-                sr.wr_addr.eq(regs.wr_addr), sr.wr_data.eq(regs.wr_data),
+                sr.fetch_grant.eq(scan[l]),
+                sr.fill_en.eq(fill_valid & (fill_tag.channel == l)),
+                sr.fill_tag.eq(fill_tag.fetch), sr.fill_data.eq(fill_data),
                 regs.pending_next[l].eq(sr.pending_next), regs.bank_next[l].eq(sr.bank_next),
                 cm.en.eq(ce), cm.a.eq(seg.o), cm.b.eq(sr.o),
             ]
             prev = seg.o
+            grant = Signal(name=f"grant{l}")
+            m.d.comb += grant.eq(scan[l] & sr.fetch_want)
+            with m.If(grant):
+                m.d.sync += [req_addr.eq(sr.fetch_addr), req_tag.fetch.eq(sr.fetch_tag),
+                             req_tag.channel.eq(l)]
+            grants.append(grant)
 
             # Gain (0 when disabled): registered product, registered rounding.
             geff = Signal(regs.gain[l].shape(), name=f"geff{l}")
@@ -159,6 +189,8 @@ class WindFarmReplay(wiring.Component):
                 with m.If(ce):
                     m.d.sync += s[k].eq(src + q[k])
             chain = s
+
+        m.d.sync += req_valid.eq(Cat(*grants).any())
 
         lo, hi = -(1 << (OUTPUT_WIDTH - 1)), (1 << (OUTPUT_WIDTH - 1)) - 1
         sat = []

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ConfigError", "BladeFlash", "WeightTable", "Wire", "Tower", "Radar",
+__all__ = ["ConfigError", "BladeFlash", "WeightTable", "Wire", "Tower", "Radar", "RangeCell",
            "Windmill", "Farm", "load_config", "parse_config", "SPEED_OF_LIGHT_M_S"]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
@@ -98,6 +98,22 @@ class Radar:
 
 
 @dataclass(frozen=True)
+class RangeCell:
+    """Marks a windmill as one delay tap of a range-extended turbine (``rast.model.extended``).
+
+    The tap's stream is the turbine's echo weighted, scatterer by scatterer,
+    by the range-cell weight of the tap at ``delay_samples`` (RTS samples of
+    round-trip delay); the turbine's hub is at ``hub_range_km``.
+    """
+    turbine: str              # the turbine's name in the config
+    hub_range_km: float
+    delay_samples: int        # this tap's round-trip delay, RTS samples
+    sample_rate_hz: float     # the RTS sample rate the taps are spaced by
+    index: int                # 0 for the nearest tap
+    count: int                # taps of this turbine
+
+
+@dataclass(frozen=True)
 class Windmill:
     """One turbine. Angles in degrees, lengths in metres, RCS in m², range in km."""
     name: str
@@ -116,6 +132,16 @@ class Windmill:
     #: sample (the seed's mode); a number: requested stream rate in Hz.
     stream_rate: float | str | None = None
     output_file: str | None = None
+    #: ``range_extended`` of the config: True/False forces the split over delay
+    #: taps on or off, None leaves it to the farm's ``range_extend_above``.
+    range_extended: bool | None = None
+    #: Set on the taps a range-extended turbine is split into (never in a config).
+    range_cell: RangeCell | None = None
+
+    @property
+    def echo_range_km(self) -> float:
+        """The range whose 1/R² sets the echo's amplitude: the hub's, also for a tap."""
+        return self.range_cell.hub_range_km if self.range_cell is not None else self.range_km
 
     @property
     def num_rcs(self) -> int:
@@ -133,12 +159,16 @@ class Farm:
     sample_rate_mhz: float
     radar: Radar
     windmills: tuple[Windmill, ...]
-    ram_depth: int | None = None        # stream words per channel bank of the target gateware; None: no limit
+    ram_depth: int | None = None        # stream pool words of the target gateware (all streams together); None: no limit
     stream_oversampling: float = 4.0    # stream rate ≥ this × max Doppler
     output_gain_db: float = 0.0         # level of the loudest windmill's peak
     interpolation: str = "fir"          # the replay block's stream interpolation: fir, linear or hold
     adc_latency: int = 0                # RTS samples from the ADC's analogue input to its data pins
     dac_latency: int = 0                # RTS samples from the DAC's data pins to its analogue output
+    #: Split every turbine whose blades sweep more than this many RTS samples of
+    #: round-trip delay (peak to peak) over delay taps; None: only those with
+    #: ``range_extended = true``.
+    range_extend_above: float | None = None
 
     @property
     def sample_rate_hz(self) -> float:
@@ -150,7 +180,7 @@ class Farm:
 
 _RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
 _FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate",
-              "interpolation", "adc_latency", "dac_latency"} | _RADAR_KEYS
+              "interpolation", "adc_latency", "dac_latency", "range_extend_above"} | _RADAR_KEYS
 _INTERPOLATIONS = ("fir", "linear", "hold")
 _WINDMILL_KEYS = {
     "name", "range", "num_blades", "rpm", "rotor_angle", "start_angle", "num_rcs",
@@ -158,7 +188,7 @@ _WINDMILL_KEYS = {
     "wire_enable", "wire_radius_min", "wire_radius_max", "wire_reflectivity",
     "wire_phase_offset", "wire_view_angle",
     "tower_rcs", "tower_phase", "tower_shadow_width", "tower_shadow_depth",
-    "stream_rate", "output_file",
+    "stream_rate", "output_file", "range_extended",
 }
 _FLASH_KEYS = {"angle", "width", "gain_db"}
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
@@ -351,6 +381,10 @@ def _parse_windmill(table: dict, where: str, problems: list[str], default_rate) 
     if output_file is not None and not isinstance(output_file, str):
         r.problem("output_file", f"must be a file name, not {output_file!r}")
         output_file = None
+    range_extended = table.get("range_extended")
+    if range_extended is not None and not isinstance(range_extended, bool):
+        r.problem("range_extended", f"must be true or false, not {range_extended!r}")
+        range_extended = None
 
     if len(problems) > before:
         return None
@@ -364,7 +398,8 @@ def _parse_windmill(table: dict, where: str, problems: list[str], default_rate) 
                     rcs_m2=rcs if rcs is not None else np.zeros(0),
                     phase_start_deg=phase if phase is not None else np.zeros(0),
                     weighting=weighting, wire=wire, tower=tower,
-                    stream_rate=stream_rate, output_file=output_file)
+                    stream_rate=stream_rate, output_file=output_file,
+                    range_extended=range_extended)
 
 
 def parse_config(data: dict, source: str | None = None) -> Farm:
@@ -389,6 +424,8 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
     output_gain_db = top.number("output_gain_db", 0.0, unit="dB")
     adc_latency = top.integer("adc_latency", 0, minimum=0, unit="RTS samples")
     dac_latency = top.integer("dac_latency", 0, minimum=0, unit="RTS samples")
+    range_extend_above = top.number("range_extend_above", None, non_negative=True,
+                                    unit="RTS samples of delay swept by the blades")
     interpolation = data.get("interpolation", "fir")
     if interpolation not in _INTERPOLATIONS:
         top.problem("interpolation", f"must be one of {', '.join(map(repr, _INTERPOLATIONS))}, "
@@ -442,8 +479,13 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
                                 f"interpolation = \"hold\" (exact at that rate)")
     if problems:
         raise ConfigError(problems, source)
-    return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
-                interpolation, adc_latency, dac_latency)
+    farm = Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
+                interpolation, adc_latency, dac_latency, range_extend_above)
+    from .extended import extend_farm     # the range-extended turbines become their delay taps
+    try:
+        return extend_farm(farm)
+    except ConfigError as error:
+        raise ConfigError(error.problems, source) from None
 
 
 def load_config(path) -> Farm:

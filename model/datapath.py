@@ -27,7 +27,8 @@ from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT
                          INTERP_FRAC_BITS, PHASE_FRAC_BITS, SEGMENT_LATENCY, GAIN_LATENCY,
                          STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
                          FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate, pack_iq, unpack_iq)
-from .regmap import (register_map, ChannelInit, ID_VALUE, CTRL_ENABLE, CTRL_SWAP)
+from .regmap import register_map
+from .powerup import ChannelInit, pool_contents
 
 __all__ = ["cmult", "gain_scale", "interpolate_words", "fir_table", "stream_words",
            "phase_sequence", "delay_line", "channel_sum", "ReplayModel"]
@@ -142,14 +143,12 @@ class ReplayModel:
         inits = list(inits or []) + [ChannelInit()] * (c.channels - len(inits or []))
         self.rmap = register_map(c, inits)
         N = c.channels
-        self.banks = np.zeros((N, 2, c.stream_depth), dtype=np.int64)
-        for l, ini in enumerate(inits):
-            if len(ini.words) > c.stream_depth:
-                raise ValueError(f"Channel {l} initial stream has {len(ini.words)} words, more than "
-                                 f"the stream depth {c.stream_depth}")
-            self.banks[l, 0, :len(ini.words)] = np.asarray(ini.words, dtype=np.int64) & 0xFFFFFFFF
+        self.pool = np.array(pool_contents(inits, c.pool_words), dtype=np.int64)
+        self._amask = (1 << c.pool_address_width) - 1
         self.enable = [int(i.enable) for i in inits]
-        self.len_next = [min(max(i.length, c.min_stream_length), c.stream_depth) for i in inits]
+        self.base_next = [self.rmap.reg("BASE", l).field("base").reset for l in range(N)]
+        self.base_act = list(self.base_next)
+        self.len_next = [min(max(i.length, c.min_stream_length), c.pool_words) for i in inits]
         self.inc_next = [min(i.phase_increment & (ONE - 1), c.max_phase_increment) for i in inits]
         self.len_act = list(self.len_next)
         self.inc_act = list(self.inc_next)
@@ -159,9 +158,9 @@ class ReplayModel:
         self.bank = [0] * N
         self.pending = [0] * N
         self.phase = [0] * N
-        self.refill = [c.refill_samples] * N      # muted steps left (FIR), phase held at 0
-        self._tables = [None] * N                  # FIR table of the active bank, made on demand
-        self.stream_sel = 0
+        self.refill = [c.refill_samples] * N      # muted steps left, phase held at 0
+        self._tables = [None] * N                  # FIR table of the active stream, made on demand
+        self._streams = [self.stream_of(l) for l in range(N)]   # the active streams' words
         self.stream_addr = 0
         self.overflow = 0
         self.steps = 0
@@ -179,12 +178,14 @@ class ReplayModel:
     # ---- registers -------------------------------------------------------
     def _swap(self, l):
         self.bank[l] ^= 1
+        self.base_act[l] = self.base_next[l]
         self.len_act[l] = self.len_next[l]
         self.inc_act[l] = self.inc_next[l]
         self.phase[l] = 0
         self.pending[l] = 0
         self.refill[l] = self.c.refill_samples
         self._tables[l] = None
+        self._streams[l] = self.stream_of(l)     # the words the cache will be filled with
 
     def write(self, addr, value):
         r = self.rmap.by_addr(addr)
@@ -217,15 +218,16 @@ class ReplayModel:
         elif r.name == "APPLY":
             if fv("delays"):
                 self.delay_act = list(self.delay_next)
-        elif r.name == "STREAM_SEL":
-            self.stream_sel = fv("channel")
+        elif r.name == "BASE":
+            self.base_next[l] = fv("base")
         elif r.name == "STREAM_ADDR":
             self.stream_addr = fv("addr")
         elif r.name == "STREAM_DATA":
-            s = self.stream_sel
-            if s < self.c.channels and not self.pending[s]:
-                self.banks[s, self.bank[s] ^ 1, self.stream_addr] = value
-            self.stream_addr = (self.stream_addr + 1) % self.c.stream_depth
+            # A playing stream's words are the host's to keep (the hardware's
+            # cache may already hold them): the model reads them at the switch.
+            if self.stream_addr < self.c.pool_words:
+                self.pool[self.stream_addr] = value
+            self.stream_addr = (self.stream_addr + 1) & self._amask
 
     def read(self, addr):
         r = self.rmap.by_addr(addr)
@@ -239,7 +241,7 @@ class ReplayModel:
             return v
         stored = {"LENGTH": lambda: self.len_next[l], "PHASE_INC": lambda: self.inc_next[l],
                   "GAIN": lambda: self.gain[l], "DELAY": lambda: self.delay_next[l],
-                  "STREAM_SEL": lambda: self.stream_sel, "STREAM_ADDR": lambda: self.stream_addr}
+                  "BASE": lambda: self.base_next[l], "STREAM_ADDR": lambda: self.stream_addr}
         if r.name in stored:
             return stored[r.name]()
         v = 0
@@ -249,8 +251,14 @@ class ReplayModel:
         return v
 
     # ---- data path -------------------------------------------------------
+    def stream_of(self, l):
+        """The active stream of channel ``l`` as the pool holds it (LENGTH words
+        from BASE, addresses modulo the address width, 0 beyond the pool)."""
+        addr = (self.base_act[l] + np.arange(self.len_act[l])) & self._amask
+        return np.where(addr < self.c.pool_words, self.pool[np.minimum(addr, self.c.pool_words - 1)], 0)
+
     def _words(self, l, phases):
-        words, length = self.banks[l, self.bank[l]], self.len_act[l]
+        words, length = self._streams[l], self.len_act[l]
         if self.c.interpolation == "fir" and self._tables[l] is None:
             self._tables[l] = fir_table(*unpack_iq(words[:length]))
         return stream_words(self.c.interpolation, words, length, phases, self._tables[l])
@@ -292,7 +300,6 @@ class ReplayModel:
         xi = np.asarray(xi, dtype=np.int64)
         xq = np.asarray(xq, dtype=np.int64)
         T = len(xi)
-        c, N = self.c, self.c.channels
         self._x.append(np.stack([xi, xq]))
         self._d.append(np.repeat(np.array(self.delay_act, dtype=np.int64)[:, None], T, axis=1))
         geff = np.array([g if e else 0 for g, e in zip(self.gain, self.enable)], dtype=np.int64)

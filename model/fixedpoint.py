@@ -95,7 +95,8 @@ import math as _math
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
             "FIR_LEAD", "FIR_KAISER_BETA", "FIR_CUTOFF", "FIR_COEF_WIDTH", "FIR_COEF_FRAC", "FIR_ACC_WIDTH", "FIR_MAX_INCREMENT",
-            "FIR_MIN_LENGTH", "FIR_REFILL_SAMPLES", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
+            "FIR_MIN_LENGTH", "FIR_REFILL_SAMPLES", "CACHE_WORDS", "CACHE_GUARD_WORDS", "CACHE_FILL_WORDS",
+            "POOL_FETCH_LATENCY", "POOL_BANK_WORDS", "cache_need_words", "fetch_wait_samples", "pool_words_for", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
             "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
             "SEGMENT_LATENCY", "GAIN_LATENCY", "CHAIN_LATENCY",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
@@ -133,8 +134,10 @@ INTERP_FRAC_BITS = 16
 #   by one serial multiplier-accumulator per channel, one tap per sample, only
 #   when J advances; the increment is limited so that J advances at most once
 #   per FIR_MIN_SAMPLES_PER_STEP samples, which leaves the MAC time to finish.
-#   After every bank switch (and reset) the channel is muted, its phase held
-#   at 0, for FIR_REFILL_SAMPLES samples while U[0..2] are computed.
+#   After every stream switch (and reset) the channel is muted, its phase
+#   held at 0, while its word cache is filled from the pool (see the pool
+#   section below) and then for FIR_REFILL_SAMPLES samples while U[0..2] are
+#   computed.
 # ---------------------------------------------------------------------------
 
 INTERPOLATIONS = ("hold", "linear", "fir")
@@ -158,8 +161,54 @@ FIR_MIN_SAMPLES_PER_STEP = 24
 FIR_MAX_INCREMENT = (1 << (PHASE_FRAC_BITS - FIR_PHASE_BITS)) // FIR_MIN_SAMPLES_PER_STEP
 #: Shortest LENGTH of a FIR build (the kernel's start address needs one wrap at most).
 FIR_MIN_LENGTH = 8
-#: Samples a channel stays muted (phase held at 0) after a bank switch or reset.
+#: Samples a channel stays muted (phase held at 0) after its cache is filled,
+#: while the FIR computes U[0..2].
 FIR_REFILL_SAMPLES = 48
+
+# ---------------------------------------------------------------------------
+# The stream pool: one memory of ``pool_words`` 32-bit words for every
+# channel's stream (per channel: BASE, LENGTH, PHASE_INC). Word ``i`` of a
+# channel's stream is pool word ``(BASE + i) mod 2**pool_address_width``; an
+# address at or beyond ``pool_words`` reads 0.
+#
+# Channels do not read the pool per sample. Each keeps a cache of CACHE_WORDS
+# words, the next words of its stream in order (wrapping at LENGTH), filled by
+# a fetcher: a scan visits one channel per clock in turn and, if that channel
+# has room, reads its next word from the pool (POOL_FETCH_LATENCY clocks to
+# the cache). The consumer (the hold/linear read or the FIR's multiplier-
+# accumulator) reads only the cache. So the pool's read bandwidth is the sum
+# of the stream rates, and a second back end (external SDRAM) can serve the
+# same requests.
+#
+# Room: a channel's cache holds CACHE_FILL_WORDS words from its consumer's
+# oldest needed word on; CACHE_GUARD_WORDS behind that are kept too (reads
+# still in the cache's read pipeline after a gap in the input). Needed at
+# once: 1 word (hold), 2 (linear), FIR_TAPS (fir).
+#
+# After a switch (and reset) the cache is refilled from the new stream while
+# the channel is muted with its phase at 0: ``fetch_wait_samples`` samples
+# (each of the CACHE_FILL_WORDS words waits at most one scan of N clocks; one
+# clock per sample is the slowest case), then FIR_REFILL_SAMPLES more for the
+# FIR. Between switches a channel consumes at most one word per N samples
+# (the increment is limited accordingly), no faster than the scan refills, so
+# the words fetched ahead stay ahead.
+# ---------------------------------------------------------------------------
+
+#: Words of each channel's cache (a power of two: positions wrap naturally).
+CACHE_WORDS = 16
+#: Cache words kept behind the oldest needed one.
+CACHE_GUARD_WORDS = 3
+#: Words a channel fetches ahead of its consumer: all the room there is. A
+#: switch waits until this many have arrived, so that the consumer starts with
+#: every word it may need while the next ones are fetched.
+CACHE_FILL_WORDS = CACHE_WORDS - CACHE_GUARD_WORDS
+#: Clocks from the scan granting a fetch to the word in the cache, at most
+#: (request register, pool address register, read, output register, bank
+#: multiplexer register, response register; the hardware checks its own).
+POOL_FETCH_LATENCY = 6
+#: Words of one pool bank (on ECP5: 32 DP16KD of 16384 x 1; deeper pools are
+#: banks behind a registered multiplexer).
+POOL_BANK_WORDS = 16384
 
 
 def fir_prototype() -> "np.ndarray":
@@ -314,16 +363,43 @@ def stream_latency(interpolation: str) -> int:
     return {"hold": 3, "linear": 6, "fir": 3}[interpolation]
 
 
-def refill_samples(interpolation: str) -> int:
-    """Samples a channel is muted (phase held at 0) after a bank switch or reset."""
-    _check_interpolation(interpolation)
-    return FIR_REFILL_SAMPLES if interpolation == "fir" else 0
+def pool_words_for(words: int) -> int:
+    """The smallest valid ``pool_words`` holding ``words`` words."""
+    if words <= POOL_BANK_WORDS:
+        return max(16, 1 << (max(1, words) - 1).bit_length())
+    return -(-words // POOL_BANK_WORDS) * POOL_BANK_WORDS
 
 
-def max_phase_increment(interpolation: str) -> int:
-    """Largest PHASE_INC the block accepts (larger values are clamped)."""
+def cache_need_words(interpolation: str) -> int:
+    """Cache words the consumer reads at one position: hold 1, linear 2, fir FIR_TAPS."""
     _check_interpolation(interpolation)
-    return FIR_MAX_INCREMENT if interpolation == "fir" else (1 << PHASE_FRAC_BITS) - 1
+    return {"hold": 1, "linear": 2, "fir": FIR_TAPS}[interpolation]
+
+
+def fetch_wait_samples(channels: int) -> int:
+    """Samples after a switch by which CACHE_FILL_WORDS words are in the cache,
+    at one clock per sample (gaps in the input only give the fetcher more
+    clocks): each waits at most one scan of ``channels`` clocks, the last one
+    POOL_FETCH_LATENCY more, plus the clock that restarts the fetcher and one
+    to spare."""
+    return CACHE_FILL_WORDS * channels + POOL_FETCH_LATENCY + 2
+
+
+def refill_samples(interpolation: str, channels: int = 1) -> int:
+    """Samples a channel is muted (phase held at 0) after a switch or reset:
+    the cache fill, then (FIR) the first three U values."""
+    _check_interpolation(interpolation)
+    extra = FIR_REFILL_SAMPLES if interpolation == "fir" else 0
+    return fetch_wait_samples(channels) + extra
+
+
+def max_phase_increment(interpolation: str, channels: int = 1) -> int:
+    """Largest PHASE_INC the block accepts (larger values are clamped): the
+    FIR's MAC limit, and for every interpolation at most one word per
+    ``channels`` samples (what the fetch scan supplies)."""
+    _check_interpolation(interpolation)
+    scan = ((1 << PHASE_FRAC_BITS) - 1) // channels
+    return min(FIR_MAX_INCREMENT, scan) if interpolation == "fir" else scan
 
 
 def min_stream_length(interpolation: str) -> int:
@@ -340,8 +416,9 @@ class ReplayContract:
     ----------
     channels : int
         Number of windmill channels N (1 to 64).
-    stream_depth : int
-        Words per stream RAM bank (each channel has two banks).
+    pool_words : int
+        Words of the stream pool, shared by all channels' streams: a power
+        of two from 16 to POOL_BANK_WORDS, or a multiple of POOL_BANK_WORDS.
     max_delay : int
         Largest programmable common delay (segment of channel 0), samples.
     max_increment : int
@@ -356,7 +433,7 @@ class ReplayContract:
         not stated (simulation). It changes no arithmetic.
     """
     channels: int = 4
-    stream_depth: int = 4096
+    pool_words: int = 65536
     max_delay: int = 4094
     max_increment: int = 1022
     interpolation: str = "fir"
@@ -364,12 +441,13 @@ class ReplayContract:
     sample_rate_hz: int = 0
 
     #: Keys of :meth:`to_dict` that are constructor parameters.
-    PARAMETERS = ("channels", "stream_depth", "max_delay", "max_increment", "interpolation",
+    PARAMETERS = ("channels", "pool_words", "max_delay", "max_increment", "interpolation",
                   "cmult_form", "sample_rate_hz")
 
     def __post_init__(self):
         def posint(name, what, v, lo=1, hi=None):
-            kind = "a positive integer" if lo == 1 else "a non-negative integer"
+            kind = ("a positive integer" if lo == 1 else "a non-negative integer" if lo == 0
+                    else f"an integer of at least {lo}")
             if not isinstance(v, int) or isinstance(v, bool):
                 raise TypeError(f"{what} must be {kind}, not {v!r}")
             if v < lo:
@@ -377,15 +455,14 @@ class ReplayContract:
             if hi is not None and v > hi:
                 raise ValueError(f"{what} must be at most {hi}, not {v!r}")
         posint("channels", "Channel count", self.channels, 1, 64)
-        posint("stream_depth", "Stream depth", self.stream_depth, 1, 1 << 16)
-        if self.stream_depth < 2 or self.stream_depth & (self.stream_depth - 1):
-            raise ValueError(f"Stream depth must be a power of two of at least 2, not {self.stream_depth!r}")
+        posint("pool_words", "Pool words", self.pool_words, 16, 1 << 20)
+        w = self.pool_words
+        if not (w % POOL_BANK_WORDS == 0 if w > POOL_BANK_WORDS else not w & (w - 1)):
+            raise ValueError(f"Pool words must be a power of two from 16 to {POOL_BANK_WORDS} or a "
+                             f"multiple of {POOL_BANK_WORDS}, not {w!r}")
         posint("max_delay", "Maximum delay", self.max_delay, 0, 1 << 20)
         posint("max_increment", "Maximum delay increment", self.max_increment, 0, 1 << 20)
         _check_interpolation(self.interpolation)
-        if self.interpolation == "fir" and self.stream_depth < FIR_MIN_LENGTH:
-            raise ValueError(f"Stream depth must be at least {FIR_MIN_LENGTH} with FIR interpolation, "
-                             f"not {self.stream_depth!r}")
         if self.cmult_form not in CMULT_FORMS:
             raise ValueError(f"Complex multiplier form must be one of 4mult, 3mult, not {self.cmult_form!r}")
         posint("sample_rate_hz", "Sample rate", self.sample_rate_hz, 0, (1 << 32) - 1)
@@ -395,7 +472,7 @@ class ReplayContract:
         follows from them (``report.json``'s ``build``, read by ``rast stream
         --build``)."""
         return {**{k: getattr(self, k) for k in self.PARAMETERS},
-                "stream_banks": 2, "latency_samples": self.latency,
+                "latency_samples": self.latency,
                 "board_latency_samples": self.board_latency,
                 "stream_latency_samples": self.stream_latency,
                 "max_phase_increment": self.max_phase_increment,
@@ -425,11 +502,21 @@ class ReplayContract:
 
     @property
     def refill_samples(self) -> int:
-        return refill_samples(self.interpolation)
+        return refill_samples(self.interpolation, self.channels)
 
     @property
     def max_phase_increment(self) -> int:
-        return max_phase_increment(self.interpolation)
+        return max_phase_increment(self.interpolation, self.channels)
+
+    @property
+    def pool_address_width(self) -> int:
+        """Bits of a pool address (BASE, STREAM_ADDR)."""
+        return (self.pool_words - 1).bit_length()
+
+    @property
+    def max_stream_length(self) -> int:
+        """Longest LENGTH: the whole pool."""
+        return self.pool_words
 
     @property
     def min_stream_length(self) -> int:
@@ -459,4 +546,4 @@ class ReplayContract:
 
     @property
     def length_width(self) -> int:
-        return self.stream_depth.bit_length()
+        return self.pool_words.bit_length()

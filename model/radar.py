@@ -71,11 +71,11 @@ def receive(farm: Farm, duration_s: float, farm_streams: FarmStreams | None = No
     """
     t = pulse_times(farm.radar.prf_hz, duration_s)
     bins = range_bins(farm)
-    nearest = min(w.range_km for w in farm.windmills)
+    nearest = min(w.echo_range_km for w in farm.windmills)
     per_windmill = {}
     for index, w in enumerate(farm.windmills):
         if farm_streams is None:
-            per_windmill[index] = (nearest / w.range_km) ** 2 * modulation(w, t, farm.radar.wavelength_m)
+            per_windmill[index] = (nearest / w.echo_range_km) ** 2 * modulation(w, t, farm.radar.wavelength_m)
         else:
             per_windmill[index] = _replayed(farm_streams, index, t)
     samples = np.zeros((len(bins), t.size), dtype=complex)

@@ -30,13 +30,16 @@ import numpy as np
 
 from . import fixedpoint as fx
 from .config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
-from .turbine import max_doppler_hz, modulation
+from .synthesis import Synthesis, synthesise_period
+from .turbine import max_doppler_hz
 
 __all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams",
            "plan_stream", "stream_times", "quantise", "build_farm_streams",
            "delay_samples", "farm_for_build"]
 
 MIN_STREAM_WORDS = 16
+#: Samples quantised at a time (bounds the temporaries).
+_QUANTISE_BLOCK = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -72,13 +75,27 @@ def stream_times(plan: StreamPlan, windmill: Windmill) -> np.ndarray:
     return np.arange(plan.length) * (windmill.period_s / plan.length)
 
 
-def _fir_peak(i: np.ndarray, q: np.ndarray) -> float:
+def _fir_peak(i: np.ndarray, q: np.ndarray, limit: int) -> float:
     """Largest |I| or |Q| of the FIR interpolator's intermediate values before
     their saturation (in word units): the continuous signal between the words
-    may overshoot the words' own peak."""
+    may overshoot the words' own peak.
+
+    Exact wherever it exceeds ``limit``; where a bound (the taps' largest word
+    times the largest Σ|c| of a phase) shows an output cannot exceed ``limit``,
+    it is not computed, and a result ≤ ``limit`` only says so.
+    """
     c = np.array(fx.fir_coefficients(), dtype=np.int64)
     L = len(i)
-    taps = (np.arange(L)[:, None] + fx.FIR_LEAD - np.arange(fx.FIR_TAPS)[None, :]) % L
+    # Output n of every phase reads the words (n + FIR_LEAD − k) mod L, k = 0 … FIR_TAPS − 1.
+    start = (fx.FIR_LEAD - fx.FIR_TAPS + 1) % L
+    largest = np.maximum(np.abs(i), np.abs(q))
+    ring = np.take(largest, np.arange(start, start + L + fx.FIR_TAPS - 1) % L)
+    window_max = np.lib.stride_tricks.sliding_window_view(ring, fx.FIR_TAPS).max(axis=1)
+    bound = fx.round_half_up(window_max * int(np.abs(c).sum(axis=1).max()), fx.FIR_COEF_FRAC)
+    n = np.flatnonzero(bound > limit)
+    if n.size == 0:
+        return 0.0
+    taps = (n[:, None] + fx.FIR_LEAD - np.arange(fx.FIR_TAPS)[None, :]) % L
     acc = np.stack([i, q])[:, taps] @ c.T
     return float(np.abs(fx.round_half_up(acc, fx.FIR_COEF_FRAC)).max())
 
@@ -92,21 +109,33 @@ def quantise(period: np.ndarray, fmt: fx.Format = fx.STREAM, interpolation: str 
     Returns ``(i, q, scale, snr_db)``: integer I and Q (int64), the scale
     (word units per unit of modulation) and the quantisation SNR in dB.
     """
-    peak = float(np.max(np.maximum(np.abs(period.real), np.abs(period.imag)))) if period.size else 0.0
+    peak = max(float(np.abs(period.real).max()), float(np.abs(period.imag).max())) if period.size else 0.0
     scale = fmt.max / peak if peak > 0 else 1.0
+    i = np.empty(period.shape, dtype=np.int64)
+    q = np.empty(period.shape, dtype=np.int64)
     while True:
-        scaled = period * scale
-        i = np.clip(np.round(scaled.real), fmt.min, fmt.max).astype(np.int64)
-        q = np.clip(np.round(scaled.imag), fmt.min, fmt.max).astype(np.int64)
+        # In blocks, so that a 26.7 M-word period needs no full-length temporaries.
+        error = signal = 0.0
+        scaled = np.empty(min(period.size, _QUANTISE_BLOCK))
+        rounded = np.empty_like(scaled)
+        for start in range(0, period.size, _QUANTISE_BLOCK):
+            block = slice(start, start + _QUANTISE_BLOCK)
+            for part, words in ((period.real[block], i[block]), (period.imag[block], q[block])):
+                x, r = scaled[:part.size], rounded[:part.size]
+                np.multiply(part, scale, out=x)
+                np.rint(x, out=r)                 # half to even, as np.round
+                np.clip(r, fmt.min, fmt.max, out=r)
+                words[...] = r
+                signal += float(np.einsum("i,i->", x, x))   # (not BLAS: its threads cost
+                x -= r                                      # more than the sum here)
+                error += float(np.einsum("i,i->", x, x))
         if interpolation != "fir" or peak == 0:
             break
-        over = _fir_peak(i, q)
+        over = _fir_peak(i, q, fmt.max)
         if over <= fmt.max:
             break
         scale *= (fmt.max - 1) / over
-    error = (i - scaled.real) ** 2 + (q - scaled.imag) ** 2
-    signal = np.abs(scaled) ** 2
-    snr_db = 10 * np.log10(signal.sum() / error.sum()) if error.sum() > 0 else math.inf
+    snr_db = 10 * np.log10(signal / error) if error > 0 else math.inf
     return i, q, scale, float(snr_db)
 
 
@@ -129,10 +158,19 @@ class WindmillStream:
     gain: float = 0.0
     gain_word: int = 0
     tap: int = 0
+    synthesis: Synthesis | None = None   # how the period was made (rast.model.synthesis)
 
     @property
     def words(self) -> np.ndarray:
         return fx.pack_iq(self.i, self.q)
+
+    def words_u32(self) -> np.ndarray:
+        """The same words as uint32, in blocks (the file writers' form: half the memory)."""
+        out = np.empty(self.i.shape, dtype=np.uint32)
+        for start in range(0, out.size, _QUANTISE_BLOCK):
+            block = slice(start, start + _QUANTISE_BLOCK)
+            out[block] = fx.pack_iq(self.i[block], self.q[block])
+        return out
 
 
 @dataclass
@@ -142,8 +180,9 @@ class FarmStreams:
     taps: list[dict]
 
     def smallest_contract(self, channels: int | None = None) -> fx.ReplayContract:
-        """The smallest replay block that holds these streams (RAM depths are
-        powers of two), at the farm's sample rate and interpolation."""
+        """The smallest replay block that holds these streams (all of them in
+        the pool at once; delay RAM depths are powers of two), at the farm's
+        sample rate and interpolation."""
         def pow2(n):
             return 1 << max(1, (max(1, n) - 1).bit_length())
         ch = self.manifest()["registers"]["channels"]
@@ -151,7 +190,7 @@ class FarmStreams:
         interp = self.farm.interpolation
         return fx.ReplayContract(
             channels=channels or len(ch),
-            stream_depth=max(pow2(max(c["length"] for c in ch)), fx.min_stream_length(interp)),
+            pool_words=fx.pool_words_for(sum(c["length"] for c in ch)),
             max_delay=pow2(ch[0]["delay_increment"] + 2) - 2,
             max_increment=max(2, pow2(max(incs) + 2) - 2), interpolation=interp,
             sample_rate_hz=round(self.farm.sample_rate_hz))
@@ -182,6 +221,10 @@ class FarmStreams:
                 "scale": s.scale,
                 "snr_db": s.snr_db,
             }
+            if w.range_cell is not None:     # one delay tap of a range-extended turbine
+                entry["range_cell"] = {"turbine": w.range_cell.turbine,
+                                       "hub_range_km": w.range_cell.hub_range_km,
+                                       "tap": w.range_cell.index, "taps": w.range_cell.count}
             windmills.append(entry)
         channels = []
         previous_delay = 0
@@ -208,7 +251,7 @@ class FarmStreams:
             # Range calibration (RTS samples): the converters' latencies from the
             # config and, for the reader, the board's own stages. Loading into a
             # board subtracts all of them and the block's L from the common delay
-            # (rast.model.regmap.manifest_to_register_writes, target "board").
+            # (rast.model.loadplan.manifest_to_register_writes, target "board").
             "calibration": {"adc_latency_samples": farm.adc_latency,
                             "dac_latency_samples": farm.dac_latency,
                             "board_input_latency_samples": fx.BOARD_INPUT_LATENCY,
@@ -238,15 +281,20 @@ def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
                         f"{contract.channels} channels")
     if problems:
         raise ConfigError(problems)
-    return dataclasses.replace(farm, ram_depth=contract.stream_depth,
+    return dataclasses.replace(farm, ram_depth=contract.pool_words,
                                interpolation=contract.interpolation)
 
 
-def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True) -> FarmStreams:
+def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=None) -> FarmStreams:
     """Compute every windmill's period, quantise it, and derive delays, taps and gains.
 
+    The periods come from :func:`rast.model.synthesis.synthesise_period` (grid
+    interpolation where the stream oversamples its band, else direct).
+    ``progress(name, done, total)`` is called as each windmill's samples are made.
+
     Raises :class:`ConfigError` (naming the windmill) when a stream does not
-    fit ``ram_depth`` or a gain does not fit the gain register.
+    fit ``ram_depth`` (the build's stream pool: each stream, and all of them
+    together) or a gain does not fit the gain register.
     """
     problems = []
     plans = [plan_stream(w, farm) for w in farm.windmills]
@@ -266,18 +314,29 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True) -> FarmStrea
                 f"windmill '{w.name}': its stream needs {plan.length} words (one period of "
                 f"{plan.period_s:.4g} s at {plan.stream_rate_hz:.6g} Hz) but 'ram_depth' is "
                 f"{farm.ram_depth}: lower 'stream_oversampling' or 'stream_rate', or raise 'ram_depth'")
+    total = sum(max(p.length, fx.min_stream_length(farm.interpolation)) for p in plans)
+    if check_ram_depth and farm.ram_depth is not None and not problems and total > farm.ram_depth:
+        problems.append(
+            f"the streams need {total} words together but 'ram_depth' (the stream pool of the "
+            f"build) is {farm.ram_depth}: lower 'stream_oversampling' or 'stream_rate', or raise "
+            f"'ram_depth'")
     if problems:
         raise ConfigError(problems)
 
-    nearest_km = min(w.range_km for w in farm.windmills)
-    streams = []
-    for w, plan in zip(farm.windmills, plans):
-        period = modulation(w, stream_times(plan, w), farm.radar.wavelength_m)
+    nearest_km = min(w.echo_range_km for w in farm.windmills)
+
+    def one(w, plan):
+        report = (lambda done, total: progress(w.name, done, total)) if progress else None
+        period, synthesis = synthesise_period(w, plan.length, farm.radar.wavelength_m, progress=report)
         i, q, scale, snr = quantise(period, interpolation=farm.interpolation)
-        streams.append(WindmillStream(
+        return WindmillStream(
             w, plan, period, i, q, scale, snr,
             delay_samples=delay_samples(w.range_km, farm.sample_rate_hz),
-            relative_amplitude=(nearest_km / w.range_km) ** 2))
+            relative_amplitude=(nearest_km / w.echo_range_km) ** 2, synthesis=synthesis)
+
+    # One windmill after another: two threads measured no faster on two shared
+    # cores (docs/stream_synthesis.md); seed mode's product uses BLAS's threads.
+    streams = [one(w, p) for w, p in zip(farm.windmills, plans)]
     streams.sort(key=lambda s: (s.delay_samples, s.windmill.range_km))
 
     # g_l ∝ K_l / scale_l: one stream word of windmill l is worth 1/scale_l of its

@@ -105,6 +105,18 @@ def _unit_phasors(turns: np.ndarray):
     return np.cos(angle), np.sin(angle)
 
 
+def _unit_phasors_stacked(turns: np.ndarray) -> np.ndarray:
+    """[cos; sin] of 2π·turns as one float32 array of shape (2, *turns.shape),
+    the same values as :func:`_unit_phasors` with fewer temporaries."""
+    reduced = np.rint(turns)
+    np.subtract(turns, reduced, out=reduced)
+    angle = np.multiply(reduced, 2 * np.pi, out=np.empty(turns.shape, np.float32), casting="same_kind")
+    out = np.empty((2, *turns.shape), dtype=np.float32)
+    np.cos(angle, out=out[0])
+    np.sin(angle, out=out[1])
+    return out
+
+
 def _modulation_chunk(windmill: Windmill, t_s: np.ndarray, wavelength_m: float) -> np.ndarray:
     beta = blade_angles(windmill, t_s)                      # (B, n)
     total = np.zeros(t_s.shape, dtype=complex)
@@ -114,16 +126,15 @@ def _modulation_chunk(windmill: Windmill, t_s: np.ndarray, wavelength_m: float) 
         # the phase written in turns: 2·r·cos(ra)·sin β/λ.
         k_turns = 2 / wavelength_m * np.cos(np.deg2rad(windmill.rotor_angle_deg))
         turns = (k_turns * windmill.radius_m)[:, None, None] * np.sin(beta)[None]   # (K, B, n)
-        cos, sin = _unit_phasors(turns)
+        phasors = _unit_phasors_stacked(turns)                                      # (2, K, B, n)
         weights = point_weights(windmill.weighting, beta)
         if weights is not None and weights.shape[0] > 1:      # one weight row per scatterer
-            weights32 = weights.astype(np.float32)
-            cos, sin = cos * weights32, sin * weights32
+            phasors *= weights.astype(np.float32)[None]
         amplitude = np.sqrt(windmill.rcs_m2) * np.exp(1j * np.deg2rad(windmill.phase_start_deg))
-        shape = cos.shape[1:]
-        cos, sin = cos.reshape(len(amplitude), -1), sin.reshape(len(amplitude), -1)
-        re = amplitude.real @ cos - amplitude.imag @ sin
-        im = amplitude.imag @ cos + amplitude.real @ sin
+        shape = phasors.shape[2:]
+        # [re; im] = [[Re a, −Im a], [Im a, Re a]] · [cos; sin]: one product, in float64.
+        mix = np.block([[amplitude.real, -amplitude.imag], [amplitude.imag, amplitude.real]])
+        re, im = mix @ phasors.reshape(2 * len(amplitude), -1).astype(np.float64)
         per_blade = (re + 1j * im).reshape(shape)                                  # (B, n)
         if weights is not None and weights.shape[0] == 1:     # one row for all scatterers
             per_blade *= weights[0]
@@ -141,7 +152,12 @@ def _modulation_chunk(windmill: Windmill, t_s: np.ndarray, wavelength_m: float) 
 
 
 def modulation(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
-    """m(t) of eq. 2.15: the sum over blades and scatterers (plus wire and tower), complex128."""
+    """m(t) of eq. 2.15: the sum over blades and scatterers (plus wire and tower), complex128.
+    A delay tap of a range-extended turbine (``range_cell`` set) gets its share of it
+    (:func:`rast.model.extended.tap_modulation`)."""
+    if windmill.range_cell is not None:
+        from .extended import tap_modulation
+        return tap_modulation(windmill, t_s, wavelength_m)
     t_s = np.asarray(t_s, dtype=float)
     out = np.empty(t_s.shape, dtype=complex)
     flat_t, flat_out = t_s.reshape(-1), out.reshape(-1)

@@ -48,7 +48,7 @@ def run(args) -> int:
     board = None if args.device else (args.board or "ulx3s-85f")
     cfg = BuildConfig(board=board, device=args.device, package=args.package, speed=args.speed,
                       pinmap=args.pinmap, channels=args.channels, clock_mhz=args.clock_mhz,
-                      baud=args.baud, stream_depth=args.stream_depth, max_delay=args.max_delay,
+                      baud=args.baud, pool_words=args.pool_words, max_delay=args.max_delay,
                       max_increment=args.max_increment, interpolation=args.interpolation,
                       cmult_form=args.cmult_form, seed=args.seed)
     try:
@@ -69,7 +69,7 @@ def run(args) -> int:
     for k in ("luts", "ffs", "dsps", "block_rams"):
         print(f"{k:>10}: {r[k]['used']} / {r[k]['available']}")
     m = rep["memory"]
-    print(f"stream words per channel: {m['stream_words_per_bank']} (x2 banks); delay samples: "
+    print(f"stream pool: {m['pool_words']} words; delay samples: "
           f"{m['delay_samples']['channel_0']} common, {m['delay_samples']['channels_1_to_n']} per step")
     print(f"wrote {args.out}/{rep['bitstream']} and {args.out}/report.json")
     cp = t["critical_path"]

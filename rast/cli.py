@@ -9,23 +9,72 @@ import sys
 import tempfile
 from pathlib import Path
 
-from rast.model.config import ConfigError, load_config
-from rast.errors import UserError, check_output, positive_hz
+# Before numpy is imported: no transparent-hugepage advice for large arrays.
+# Under the common "defrag = madvise" kernel setting every fresh hugepage is
+# compacted synchronously; touching seed mode's ~1 GB of new arrays took 2 to
+# 3 s more that way (docs/stream_synthesis.md). A value the user set wins.
+os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
+
+from rast.model.config import ConfigError, load_config  # noqa: E402
+from rast.errors import UserError, check_output, positive_hz  # noqa: E402
 
 
 def _print_streams(farm_streams) -> None:
-    header = f"{'windmill':<14}{'range km':>9}{'rpm':>6}{'words':>9}{'rate Hz':>11}{'fmax Hz':>9}{'delay':>7}{'gain':>8}{'SNR dB':>8}"
+    header = f"{'windmill':<14}{'range km':>9}{'rpm':>8}{'words':>9}{'rate Hz':>11}{'fmax Hz':>9}{'delay':>7}{'gain':>8}{'SNR dB':>8}"
     print(header)
     for s in farm_streams.streams:
         w = s.windmill
-        print(f"{w.name:<14}{w.range_km:>9.3f}{w.rpm:>6g}{s.plan.length:>9}{s.plan.stream_rate_hz:>11.1f}"
+        print(f"{w.name:<14}{w.range_km:>9.3f}{w.rpm:>8.5g}{s.plan.length:>9}{s.plan.stream_rate_hz:>11.1f}"
               f"{s.plan.max_doppler_hz:>9.0f}{s.delay_samples:>7}{s.gain:>8.4f}{s.snr_db:>8.1f}")
+
+
+class _StreamProgress:
+    """``[rast stream]`` lines on stderr, at most one a second and only once the
+    work has taken a second: seed-mode streams take seconds, most farms do not."""
+
+    def __init__(self, farm):
+        import threading
+        import time
+        from rast.model.stream import plan_stream
+        self.total = sum(plan_stream(w, farm).length for w in farm.windmills)
+        self.clock = time.monotonic
+        self.start = self.last = self.clock()
+        self.done = {w.name: 0 for w in farm.windmills}
+        self.lock = threading.Lock()
+
+    def __call__(self, name, done, total):
+        with self.lock:
+            self.done[name] = done
+            now = self.clock()
+            if now - self.start >= 1.0 and now - self.last >= 1.0 and self.total:
+                self.last = now
+                count = sum(self.done.values())
+                print(f"[rast stream] {count / self.total:6.1%}  {count:>11,d}/{self.total:,d} "
+                      f"samples  {now - self.start:5.1f} s", file=sys.stderr, flush=True)
+
+    def note(self, text):
+        if self.clock() - self.start >= 1.0:
+            print(f"[rast stream] {text}  {self.clock() - self.start:5.1f} s", file=sys.stderr, flush=True)
+
+
+def _print_synthesis(farm_streams) -> None:
+    """How each period was made, where it was not plain direct evaluation
+    (docs/stream_synthesis.md)."""
+    for s in farm_streams.streams:
+        syn = s.synthesis
+        if syn is None or syn.check_error_dbc is None:
+            continue
+        if syn.method == "grid":
+            print(f"{s.windmill.name}: synthesised from every {syn.grid_step}th sample, "
+                  f"midpoint check {syn.check_error_dbc:.1f} dBc RMS")
+        else:
+            print(f"{s.windmill.name}: evaluated directly: {syn.reason}")
 
 
 def cmd_stream(args) -> int:
     from rast.errors import read_build
     from rast.model.ramfiles import write_farm_files
-    from rast.model.regmap import manifest_to_register_writes
+    from rast.model.loadplan import manifest_to_register_writes
     from rast.model.stream import build_farm_streams, farm_for_build
 
     check_output(args.out, folder=True, option="--out")
@@ -33,22 +82,29 @@ def cmd_stream(args) -> int:
     contract = read_build(args.build) if args.build else None
     if contract is not None:
         farm = farm_for_build(farm, contract)
-    farm_streams = build_farm_streams(farm)
+    progress = _StreamProgress(farm)
+    farm_streams = build_farm_streams(farm, progress=progress)
     if contract is not None:
         try:
             manifest_to_register_writes(farm_streams.manifest(), contract, target="board")
         except ValueError as error:
             raise UserError(f"the streams do not fit the build {args.build}: {error}") from None
+    progress.note("writing the files")
     try:
-        written = write_farm_files(farm_streams, args.out, build=contract)
+        written = write_farm_files(farm_streams, args.out, build=contract, formats=args.format)
     except OSError as error:        # e.g. a full disk; nothing was moved into place
         raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
     _print_streams(farm_streams)
-    need = farm_streams.smallest_contract()
-    print(f"needs a build with at least {need.channels} channel(s), stream depth {need.stream_depth} "
-          f"words, common delay {need.max_delay}, delay increment {need.max_increment}, "
-          f"{need.interpolation} interpolation, {farm.sample_rate_mhz:g} MHz"
-          + (f"; sized for {args.build}" if contract is not None else ""))
+    _print_synthesis(farm_streams)
+    try:
+        need = farm_streams.smallest_contract()
+    except ValueError as error:     # e.g. seed mode's millions of words: no replay block holds them
+        print(f"no replay build holds these streams: {error}")
+    else:
+        print(f"needs a build with at least {need.channels} channel(s), a stream pool of "
+              f"{need.pool_words} words, common delay {need.max_delay}, delay increment "
+              f"{need.max_increment}, {need.interpolation} interpolation, {farm.sample_rate_mhz:g} MHz"
+              + (f"; sized for {args.build}" if contract is not None else ""))
     print(f"wrote {len(written)} files to {Path(args.out).resolve()}:")
     for name in sorted(written):
         print(f"  {written[name]}")
@@ -56,7 +112,7 @@ def cmd_stream(args) -> int:
 
 
 def cmd_preview(args) -> int:
-    from rast.model.plot import save_preview
+    from rast.model.plot import MAX_PANELS, save_preview, save_range_doppler
     from rast.model.radar import receive, spectrogram
     from rast.model.sfdr import farm_sfdr
     from rast.model.stream import build_farm_streams
@@ -76,14 +132,19 @@ def cmd_preview(args) -> int:
         measured, unmeasured = farm_sfdr(farm, samples, bins), None
     except ValueError as error:      # e.g. a maximum Doppler beyond PRF/2 leaves no band outside
         measured, unmeasured = None, str(error)
+    map_view = args.range_doppler or len(bins) > MAX_PANELS
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     # Draw into a temporary file and move it into place: the PNG appears whole or not at all.
     fd, tmp = tempfile.mkstemp(suffix=".png", dir=out.parent)
     os.close(fd)
     try:
-        save_preview(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range, zoom_hz=args.zoom,
-                     sfdr=measured)
+        if map_view:
+            save_range_doppler(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range,
+                               zoom_hz=args.zoom)
+        else:
+            save_preview(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range, zoom_hz=args.zoom,
+                         sfdr=measured)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)   # mkstemp made it private
@@ -104,7 +165,74 @@ def cmd_preview(args) -> int:
                   f"in CPI {r.cpi_index})")
         k = min(range(len(measured)), key=lambda i: measured[i].sfdr_db)
         print(f"worst SFDR {measured[k].sfdr_db:.1f} dB (range bin {bins[k].range_km:g} km)")
+    if map_view:
+        print(f"drew the range-Doppler map (peak over {spectra[0].times_s.size} CPIs per range bin)"
+              + ("" if args.range_doppler else f": more than {MAX_PANELS} range bins"))
     print(f"wrote {out.resolve()}")
+    return 0
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    """argparse type of --format: a comma-separated list of RAM file formats."""
+    from rast.model.ramfiles import FORMATS
+    chosen = tuple(f.strip().lower() for f in text.split(",") if f.strip())
+    bad = [f for f in chosen if f not in FORMATS]
+    if not chosen or bad:
+        raise argparse.ArgumentTypeError(f"must be a comma-separated list of {', '.join(FORMATS)}, not {text}")
+    return chosen
+
+
+def cmd_import(args) -> int:
+    from rast.model.config import Radar
+    from rast.model.ramfiles import write_farm_files
+    from rast.model import recording as rec
+
+    check_output(args.out, folder=True, option="--out")
+    if args.blades < 1:
+        raise UserError(f"--blades must be at least 1, not {args.blades}")
+    try:
+        recording = rec.read_recording(args.recording)
+        prf = args.prf or recording.sample_rate_hz
+        if prf is None:
+            raise UserError("give the recording's pulse repetition frequency with --prf HZ")
+        if args.prf and recording.sample_rate_hz and abs(args.prf - recording.sample_rate_hz) > 1e-9 * prf:
+            raise UserError(f"--prf {args.prf:g} Hz contradicts the recording's core:sample_rate "
+                            f"({recording.sample_rate_hz:g} Hz)")
+        if args.period is not None:
+            period_s, how = args.period, "given"
+        else:
+            estimate = rec.estimate_period(recording.samples, prf)
+            period_s = estimate.period_s
+            how = (f"estimated {estimate.method}ly at {estimate.multiple} periods, "
+                   f"correlation {estimate.correlation:.3f}")
+        rate = args.rate or prf
+        rec.stream_increment(rate, args.sample_rate, args.interpolation)   # before the work
+        length = max(2, round(rate * period_s))
+        loop = rec.make_loop(recording.samples, prf, period_s, length, min(prf, length / period_s))
+        frequency_mhz = args.radar_frequency or (recording.frequency_hz or 5350e6) / 1e6
+        stem = Path(args.recording).name.split(".")[0]
+        name = args.name or re.sub(r"[^A-Za-z0-9_.-]", "_", stem) or "recording"
+        if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name):
+            raise UserError(f"--name must be a file-name-safe string (letters, digits, _ . -), not {name!r}")
+        farm_streams = rec.recording_streams(
+            loop, name=name, range_km=args.range, num_blades=args.blades,
+            sample_rate_mhz=args.sample_rate, radar=Radar(frequency_mhz, prf, cpi_ms=args.cpi),
+            interpolation=args.interpolation)
+        correlation = rec.spectrogram_correlation(recording.samples, loop, farm_streams)
+    except rec.RecordingError as error:
+        raise UserError(f"{args.recording}: {error}") from None
+    try:
+        written = write_farm_files(farm_streams, args.out)
+    except OSError as error:
+        raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
+    w = farm_streams.streams[0].windmill
+    print(f"period {period_s:.6g} s ({how}): {w.rpm:.5g} rpm with {w.num_blades} blade(s); "
+          f"{loop.periods} whole period(s) averaged into {length} words")
+    print(f"spectrogram correlation, replayed stream vs recording (dB, 40 dB range): {correlation:.4f}")
+    _print_streams(farm_streams)
+    print(f"wrote {len(written)} files to {Path(args.out).resolve()}:")
+    for file in sorted(written):
+        print(f"  {written[file]}")
     return 0
 
 
@@ -129,8 +257,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("config", help="TOML config (one windmill or a farm)")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--build", metavar="REPORT",
-                   help="report.json of the bitstream to load: streams sized for its stream depth, "
+                   help="report.json of the bitstream to load: streams sized for its stream pool, "
                         "interpolation and channels; refused if its sample rate is not the config's")
+    p.add_argument("--format", type=_formats, default=None, metavar="LIST",
+                   help="RAM files to write, comma-separated from hex, bin, npy, coe (Xilinx), mif (Intel); "
+                        "default hex,bin,npy; .hex is always written (rast load reads it)")
     p.set_defaults(func=cmd_stream)
 
     p = sub.add_parser("preview", help="draw the micro-Doppler spectrogram the radar will see")
@@ -147,9 +278,34 @@ def build_parser() -> argparse.ArgumentParser:
                    help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
     p.add_argument("--replay", action="store_true",
                    help="show the quantised stream words as the RTS replays them, not the physics")
+    p.add_argument("--range-doppler", action="store_true",
+                   help="one range-Doppler map (each range bin's peak over the CPIs) instead of a "
+                        "spectrogram per range bin; the default beyond 8 range bins")
     p.set_defaults(func=cmd_preview)
 
-    for module_name in ("verilog", "cosim", "build", "load"):
+    p = sub.add_parser("import", help="make a recorded slow-time I/Q series into a stream")
+    p.add_argument("recording", help=".npy (complex), .sigmf-meta/.sigmf-data, or .csv (I, Q)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--prf", type=positive_hz, help="the recording's pulse repetition frequency "
+                   "(default: the SigMF core:sample_rate)")
+    p.add_argument("--rate", type=positive_hz, help="stream words per second (default: the PRF)")
+    p.add_argument("--period", type=_number("a positive number of seconds"),
+                   help="the repeat period in seconds instead of estimating it")
+    p.add_argument("--blades", type=int, default=3, help="blades, to turn the period into rpm (default 3)")
+    p.add_argument("--range", type=_number("a positive range in km"), default=2.0,
+                   help="the turbine's range in km: its delay (default 2)")
+    p.add_argument("--sample-rate", type=_number("a positive rate in MHz"), default=20.0,
+                   help="the RTS sample rate in MHz (default 20)")
+    p.add_argument("--radar-frequency", type=_number("a positive frequency in MHz"),
+                   help="MHz, for the manifest (default: SigMF core:frequency, else 5350)")
+    p.add_argument("--cpi", type=_number("a positive number of ms"), default=100.0,
+                   help="CPI of the correlation check's spectrograms in ms (default 100)")
+    p.add_argument("--interpolation", choices=("fir", "linear", "hold"), default="fir",
+                   help="the replay block's interpolation (default fir)")
+    p.add_argument("--name", help="stream name (default: the recording's file name)")
+    p.set_defaults(func=cmd_import)
+
+    for module_name in ("verilog", "cosim", "build", "load", "farm"):
         try:
             module = __import__(f"rast.{module_name}", fromlist=["add_arguments", "run"])
         except ImportError:

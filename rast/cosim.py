@@ -56,6 +56,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
     p.add_argument("--dynamic-range", type=float, default=90.0,
                    help="colour scale depth of the spectrogram in dB (default 90)")
+    p.add_argument("--netlist", action="store_true",
+                   help="simulate the design as synth_ecp5 leaves it, with the ECP5 cell models, instead "
+                        "of the behavioural Verilog (docs/netlist_sim.md)")
     p.add_argument("--waves", action="store_true",
                    help="dump a waveform: VCD with Verilator, FST with Icarus (large for long runs)")
 
@@ -112,6 +115,7 @@ def run(args) -> int:
     from rast.model.config import ConfigError, load_config
     from rast.sim import runner
     from rast.sim.e2e import prepare
+    from rast.sim.netlist import replay_netlist_sources
     from rast.sim.top import top_sources
     try:
         load_config(args.config)            # before anything is created
@@ -128,13 +132,15 @@ def run(args) -> int:
     e = prepare(config, args.seconds, channels=args.channels, noise_rms=args.noise_rms)
     c = e.scenario.contract
     print(f"rast cosim: {Path(config).name}: {e.pulse.n_pulses} pulses, {e.info['samples']:,} RTS samples "
-          f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s), stream depth {c.stream_depth}, "
-          f"latency {c.latency}; simulator {args.simulator}", flush=True)
-    sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
-                               interpolation=c.interpolation,
-                               max_increment=c.max_increment)
+          f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s), pool words {c.pool_words}, "
+          f"latency {c.latency}; simulator {args.simulator}"
+          f"{', synthesised netlist (synth_ecp5) with ECP5 cell models' if args.netlist else ''}", flush=True)
+    make_sources = replay_netlist_sources if args.netlist else top_sources
+    sources, top = make_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
+                                interpolation=c.interpolation,
+                                max_increment=c.max_increment)
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
-                     label=f"cosim{c.channels}", public_all=False)
+                     label=f"cosim{c.channels}{'-netlist' if args.netlist else ''}", public_all=False)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
     params = dict(config=config, seconds=args.seconds, channels=args.channels, overlap=args.overlap,
@@ -163,6 +169,7 @@ def run(args) -> int:
             written.append("spectrogram.png")
     lines = [f"rast cosim {config}",
              f"simulator           {args.simulator}",
+             f"design              {'netlist after synth_ecp5, ECP5 cell models' if args.netlist else 'behavioural Verilog'}",
              f"radar time          {args.seconds:g} s ({e.pulse.n_pulses} pulses)",
              f"RTS samples         {e.info['samples']:,} through the RTL"]
     if rep:

@@ -1,9 +1,10 @@
 """load a `rast stream` manifest (streams, delays, gains) into a board over the UART bridge
 
 ``rast load MANIFEST_DIR --port /dev/ttyUSB0`` asks the bitstream for its
-configuration (channel count, depths, latency), writes every windmill's
-stream into the inactive bank, switches banks, sets gains and delays, reads
-them back and prints the status (overflow flag, versions).
+configuration (channel count, pool words, delays, latency), disables every
+channel, writes every windmill's stream into the stream pool, switches each
+channel to its stream, sets gains and delays, reads them back and prints the
+status (overflow flag, versions).
 """
 
 import os
@@ -13,8 +14,8 @@ import time
 from rast.errors import UserError, manifest_streams, read_manifest
 from rast.model.fixedpoint import INTERPOLATIONS, ReplayContract
 from rast.model.hostproto import HostBridge, BRIDGE_ID, ProtocolError
-from rast.model.regmap import (ID_VALUE, register_map, manifest_to_register_writes,
-                               CTRL_ENABLE)
+from rast.model.regmap import ID_VALUE, register_map, CTRL_ENABLE
+from rast.model.loadplan import manifest_to_register_writes
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
            "send_writes", "read_status", "LoadError"]
@@ -36,7 +37,7 @@ def read_contract(bridge: HostBridge) -> ReplayContract:
     if ident != ID_VALUE:
         raise LoadError(f"Register ID reads {ident:#010x}, not {ID_VALUE:#010x}: not a RAST bitstream")
     cfg = bridge.read(a("CONFIG"))
-    c = ReplayContract(channels=cfg & 0xFF, stream_depth=bridge.read(a("STREAM_DEPTH")),
+    c = ReplayContract(channels=cfg & 0xFF, pool_words=bridge.read(a("POOL_WORDS")),
                        max_delay=bridge.read(a("MAX_DELAY")),
                        max_increment=bridge.read(a("MAX_INCREMENT")),
                        interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],
@@ -54,7 +55,7 @@ def expected_readback(writes, rmap):
     exp = {}
     for addr, value in writes:
         r = rmap.by_addr(addr)
-        if r is None or r.name in ("STREAM_DATA", "APPLY", "STREAM_ADDR", "STREAM_SEL"):
+        if r is None or r.name in ("STREAM_DATA", "APPLY", "STREAM_ADDR"):
             continue
         v = 0
         for f in r.fields:
@@ -82,7 +83,7 @@ def plan_writes(manifest, contract, words=None):
         return manifest_to_register_writes(manifest, contract, streams=words, target="board")
     except ValueError as error:
         raise UserError(f"the manifest does not fit the bitstream's replay block ({contract.channels} "
-                        f"channel(s), stream depth {contract.stream_depth}, maximum delay "
+                        f"channel(s), pool words {contract.pool_words}, maximum delay "
                         f"{contract.max_delay}, maximum increment {contract.max_increment}, latency "
                         f"{contract.latency}): {error}") from None
 
@@ -136,7 +137,7 @@ def add_arguments(p):
     p.add_argument("--port", required=True, help="serial port of the board, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=int, default=1_000_000, help="bridge baud rate (default 1000000)")
     p.add_argument("--no-streams", action="store_true",
-                   help="write gains, delays, lengths and rates only, not the stream RAMs")
+                   help="write gains and delays only, not the streams")
     p.add_argument("--status", action="store_true", help="only read and print the status")
 
 

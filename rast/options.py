@@ -5,19 +5,19 @@ from __future__ import annotations
 __all__ = ["REPLAY_OPTIONS", "add_replay_arguments", "replay_kwargs"]
 
 #: The :class:`rast.model.fixedpoint.ReplayContract` parameters the options set (but ``channels``).
-REPLAY_OPTIONS = ("stream_depth", "max_delay", "max_increment", "interpolation", "cmult_form")
+REPLAY_OPTIONS = ("pool_words", "max_delay", "max_increment", "interpolation", "cmult_form")
 
 
 def add_replay_arguments(parser, *, channels: int) -> None:
-    """Add ``--channels`` (default ``channels``), ``--stream-depth``, ``--max-delay``,
+    """Add ``--channels`` (default ``channels``), ``--pool-words``, ``--max-delay``,
     ``--max-increment``, ``--interpolation`` and ``--cmult-form`` to ``parser`` (a
     parser or an argument group); the defaults are :class:`ReplayContract`'s."""
     from rast.model.fixedpoint import ReplayContract
     d = ReplayContract()
     parser.add_argument("--channels", type=int, default=channels,
                         help=f"windmill channels N (default {channels})")
-    parser.add_argument("--stream-depth", type=int, default=d.stream_depth,
-                        help=f"stream words per RAM bank (default {d.stream_depth})")
+    parser.add_argument("--pool-words", type=int, default=d.pool_words,
+                        help=f"words of the stream pool shared by all channels (default {d.pool_words})")
     parser.add_argument("--max-delay", type=int, default=d.max_delay,
                         help=f"largest common delay, samples (default {d.max_delay})")
     parser.add_argument("--max-increment", type=int, default=d.max_increment,

@@ -40,14 +40,14 @@ def run(args):
     check_output(args.output, folder=False, option="--output")
     extra = []
     if args.manifest:
-        from rast.model.regmap import manifest_channel_inits
+        from rast.model.loadplan import manifest_channel_inits
         manifest, manifest_file = read_manifest(args.manifest)
         streams = manifest_streams(manifest, manifest_file.parent)
         try:
             kwargs["init"] = manifest_channel_inits(manifest, contract, streams=streams)
         except ValueError as error:
             raise UserError(f"the manifest {manifest_file} does not fit a block of {contract.channels} "
-                            f"channel(s), stream depth {contract.stream_depth}, maximum delay "
+                            f"channel(s), pool words {contract.pool_words}, maximum delay "
                             f"{contract.max_delay}, maximum increment {contract.max_increment}: "
                             f"{error}") from None
         extra.append(f"initial contents from {manifest_file.name}: "

@@ -27,7 +27,7 @@ import numpy as np
 
 from rast.model.fixedpoint import ReplayContract
 from rast.model.pulses import PulseConfig, generate
-from rast.model.regmap import manifest_to_register_writes
+from rast.model.loadplan import manifest_to_register_writes
 
 from .bulk import MAX_CAP, BulkJob
 from .scenario import Scenario
@@ -88,7 +88,7 @@ def prepare(config, seconds: float = 1.0, *, channels: int | None = None, amplit
                   timeout=10_000)
     sc = Scenario(f"e2e-{Path(config).stem}-{seconds:g}s", c, job, farm.sample_rate_hz)
     return E2E(str(config), farm, fs, sc, pulse, gate_list,
-               info=dict(channels=c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
+               info=dict(channels=c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
                          max_increment=c.max_increment, latency=c.latency, pulses=pulse.n_pulses,
                          samples=job.n_in, samples_per_pri=pulse.samples_per_pri, active=active))
 

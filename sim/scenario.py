@@ -20,7 +20,8 @@ from rast.model import fixedpoint as fx
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract
 from rast.model.pulses import PulseConfig, generate
-from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map, manifest_to_register_writes
+from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
+from rast.model.loadplan import manifest_to_register_writes, pool_layout, free_region
 
 from .bulk import BulkJob
 
@@ -79,15 +80,47 @@ def model_outputs(sc: Scenario, xi=None, xq=None):
 # ---------------------------------------------------------------------------
 # Random register sequences
 
-def _stream_load(rmap, ch, words, length, inc, enable=True, force=False):
-    """Write a stream into channel ``ch``'s inactive bank and switch to it: at the
-    active stream's next period boundary, or at once (``force``: disable, switch,
-    re-enable, as a host does at start-up)."""
+class PoolTracker:
+    """The pool regions each channel may be playing, as a host without a
+    read-back must assume them: a load switched at the period boundary may
+    still find the old stream playing (even an older one, when loads follow
+    each other within a period); a forced switch leaves only the stream the
+    registers name. New streams go where none of them lies."""
+
+    def __init__(self, contract, regions=()):
+        self.c = contract
+        self.playing = [[] for _ in range(contract.channels)]    # (base, length) per channel
+        self.named = [None] * contract.channels                   # what BASE/LENGTH say
+        for ch, region in enumerate(regions):
+            self.playing[ch] = [region]
+            self.named[ch] = region
+
+    def place(self, ch, length, *, force=False):
+        """Pool address for a new stream of channel ``ch`` (``None``: no room);
+        the region is as long as the channel will read (LENGTH's clamp)."""
+        length = max(length, self.c.min_stream_length)
+        in_use = [r for regs in self.playing for r in regs]
+        try:
+            base = free_region(in_use, length, self.c.pool_words)
+        except ValueError:
+            return None
+        self.named[ch] = (base, length)
+        self.playing[ch] = [(base, length)] if force else self.playing[ch] + [(base, length)]
+        return base
+
+    def forced_switch(self, ch):
+        self.playing[ch] = [self.named[ch]] if self.named[ch] else []
+
+
+def _stream_load(rmap, ch, words, length, inc, base, enable=True, force=False):
+    """Write a stream into the pool at ``base`` and switch channel ``ch`` to it:
+    at the active stream's next period boundary, or at once (``force``:
+    disable, switch, re-enable, as a host does at start-up)."""
     a = rmap.addr
     w = [(a("CTRL", ch), 0)] if force else []
-    w += [(a("STREAM_SEL"), ch), (a("STREAM_ADDR"), 0)]
+    w += [(a("STREAM_ADDR"), base)]
     w += [(a("STREAM_DATA"), int(x) & 0xFFFFFFFF) for x in words]
-    w += [(a("LENGTH", ch), length), (a("PHASE_INC", ch), inc)]
+    w += [(a("BASE", ch), base), (a("LENGTH", ch), length), (a("PHASE_INC", ch), inc)]
     if force:
         w += [(a("CTRL", ch), CTRL_SWAP), (a("CTRL", ch), CTRL_ENABLE if enable else 0)]
     else:
@@ -130,13 +163,13 @@ def _random_inc(rng):
 
 
 #: One contract for every random top test, so a channel count is one build.
-TEST_CONTRACT = dict(stream_depth=512, max_delay=200, max_increment=40)
+TEST_CONTRACT = dict(pool_words=4096, max_delay=200, max_increment=40)
 
 
 def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: int = 40,
                     interpolation: str = "fir",
                     pri: int = 240, pulse_samples: int = 48, gap_thresh: int = 48,
-                    stall_thresh: int = 48, mid_run_writes: int = 8) -> Scenario:
+                    stall_thresh: int = 48, mid_run_writes: int = 8, contract: dict | None = None) -> Scenario:
     """Random streams, delays, gains and enables, and random register writes at
     random samples mid-run (gains, enables, delays with APPLY, stream reloads
     with a bank switch at the period boundary, forced switches).
@@ -146,17 +179,19 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
     overflow flag is set).
     """
     rng = np.random.default_rng(seed)
-    c = ReplayContract(channels=channels, interpolation=interpolation, **TEST_CONTRACT)
+    c = ReplayContract(channels=channels, interpolation=interpolation, **(contract or TEST_CONTRACT))
     rmap = register_map(c)
     a = rmap.addr
     full = kind == "saturate"
     regs = []
+    pool = PoolTracker(c)
     for ch in range(channels):
         length = int(rng.integers(1, 160))
         gain = int(rng.integers(fx.GAIN.max + 1 - 4096, fx.GAIN.max + 1)) if full else _random_gain(rng)
+        base = pool.place(ch, length, force=True)
         regs += [(0, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full), length,
-                                               _random_inc(rng), enable=full or rng.random() < 0.85,
-                                               force=True)]
+                                               _random_inc(rng), base,
+                                               enable=full or rng.random() < 0.85, force=True)]
         regs += [(0, a("GAIN", ch), gain),
                  (0, a("DELAY", ch), int(rng.integers(0, c.max_segment_delay(ch) + 1)))]
     regs.append((0, a("APPLY"), 1))
@@ -175,12 +210,15 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
                 regs.append((at, a("DELAY", k), int(rng.integers(0, c.max_segment_delay(k) + 1))))
             regs.append((at, a("APPLY"), 1))
         elif what == 3 or what == 4:                                            # stream reload
-            length = int(rng.integers(1, c.stream_depth + 1)) if rng.random() < 0.3 else int(rng.integers(1, 64))
-            regs += [(at, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full),
-                                                   length, _random_inc(rng))]
+            length = int(rng.integers(1, 1024)) if rng.random() < 0.3 else int(rng.integers(1, 64))
+            base = pool.place(ch, length)
+            if base is not None:
+                regs += [(at, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full),
+                                                       length, _random_inc(rng), base)]
         else:                                                                   # forced switch
             regs += [(at, a("CTRL", ch), 0), (at, a("CTRL", ch), CTRL_SWAP),
                      (at, a("CTRL", ch), CTRL_ENABLE)]
+            pool.forced_switch(ch)
     amp = 1.0 if full else float(rng.uniform(0.2, 0.9))
     cfg = PulseConfig(sample_rate_mhz=20, prf_hz=20e6 / pri, pulse_width_us=pulse_samples / 20,
                       shape="chirp", bandwidth_mhz=float(rng.uniform(1, 20)), amplitude=amp,
@@ -195,14 +233,14 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
 
 
 def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int = 32,
-                  stall_thresh: int = 32) -> Scenario:
+                  stall_thresh: int = 32, contract: dict | None = None) -> Scenario:
     """A random farm built by the golden model (streams, delays, gains from
     ``rast.model.stream``), loaded with ``manifest_to_register_writes``,
     then reloaded mid-run with a second random farm's streams."""
     from rast.model.config import parse_config
     from rast.model.stream import build_farm_streams
     rng = np.random.default_rng(seed)
-    c = ReplayContract(channels=channels, **TEST_CONTRACT)
+    c = ReplayContract(channels=channels, **(contract or TEST_CONTRACT))
     fs_mhz = 10.0
     sample_m = 299_792_458.0 / (2 * fs_mhz * 1e6)          # range per delay sample
 
@@ -222,7 +260,7 @@ def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int
                           "rsc": rng.uniform(0.2, 2, size=nr).round(3).tolist(),
                           "start_angle": float(rng.uniform(0, 360))})
         return parse_config({"sample_rate": fs_mhz, "radar_frequency": 300.0, "prf": 10_000,
-                             "pulse_width": 4, "cpi": 100, "ram_depth": c.stream_depth,
+                             "pulse_width": 4, "cpi": 100, "ram_depth": c.pool_words,
                              "windmill": mills})
     f1 = farm(int(rng.integers(1, channels + 1)))
     s1 = build_farm_streams(f1)
@@ -233,10 +271,16 @@ def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int
     f2 = farm(len(s1.streams))
     s2 = build_farm_streams(f2)
     rmap = register_map(c)
+    lengths = [s.plan.length for s in s1.streams]
+    pool = PoolTracker(c, list(zip(pool_layout(lengths, c.pool_words), lengths)))
     pri = 1000
     at = int(rng.integers(pri, pulses * pri // 2))
     for ch, s in enumerate(s2.streams):
-        regs += [(at, *w) for w in _stream_load(rmap, ch, s.words, s.plan.length, s.plan.phase_increment)]
+        base = pool.place(ch, s.plan.length)
+        if base is None:
+            raise ValueError(f"farm scenario: no room in the pool for the reload of channel {ch}")
+        regs += [(at, *w) for w in _stream_load(rmap, ch, s.words, s.plan.length,
+                                               s.plan.phase_increment, base)]
         regs.append((at, rmap.addr("GAIN", ch), s.gain_word))
     cfg = PulseConfig(sample_rate_mhz=fs_mhz, prf_hz=fs_mhz * 1e6 / pri, pulse_width_us=4, shape="rect",
                       amplitude=0.7, carrier_offset_hz=float(rng.uniform(-1e5, 1e5)),

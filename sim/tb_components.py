@@ -131,36 +131,47 @@ async def delay_line(dut):
 # Stream replay
 
 class StreamRef:
-    """Step model of the stream replay state (the rule in its docstring)."""
+    """Step model of the stream replay state (the rule in its docstring): the
+    stream is ``length`` pool words from ``base``; after reset and every
+    switch the phase is held at 0 and the word is 0 for ``refill`` steps."""
 
-    def __init__(self, depth):
-        self.banks = np.zeros((2, depth), dtype=np.int64)
+    def __init__(self, pool_words, refill):
+        self.pool = np.zeros(pool_words, dtype=np.int64)
+        self.refill_samples = refill
+        self.refill = refill
         self.bank = 0
+        self.base = 0
         self.idx = 0
         self.frac = 0
         self.length = 1
         self.inc = 0
         self.pending = 0
 
-    def switch(self, length, inc):
+    def switch(self, base, length, inc):
         self.bank ^= 1
-        self.length, self.inc = length, inc
+        self.base, self.length, self.inc = base, length, inc
         self.idx = self.frac = 0
         self.pending = 0
+        self.refill = self.refill_samples
 
-    def step(self, next_length, next_inc):
+    def step(self, next_base, next_length, next_inc):
+        if self.refill:
+            self.refill -= 1
+            return
         acc = self.frac + self.inc
         carry = acc >> PHASE_FRAC_BITS
         wrap = carry and self.idx == self.length - 1
         if self.pending and wrap:
-            self.switch(next_length, next_inc)
+            self.switch(next_base, next_length, next_inc)
         elif wrap:
             self.idx, self.frac = 0, acc & (ONE - 1)
         else:
             self.idx, self.frac = self.idx + carry, acc & (ONE - 1)
 
     def word(self, interpolation):
-        b = self.banks[self.bank]
+        if self.refill:
+            return 0, 0
+        b = self.pool[self.base:self.base + self.length]
         wi, wq = unpack_iq(b[self.idx])
         if interpolation == "hold":
             return int(wi), int(wq)
@@ -175,19 +186,19 @@ async def stream_replay(dut):
     p = params()
     depth, interp, lat = p["depth"], p["interpolation"], p["latency"]
     rng = np.random.default_rng(p["seed"])
-    ref = StreamRef(depth)
+    ref = StreamRef(depth, p["refill"])
     bench = StepBench(dut, en_pattern=p["en_pattern"], seed=p["seed"])
-    idle = {"length": 1, "increment": 0, "swap_req": 0, "swap_force": 0, "wr_en": 0,
-            "wr_bank": 0, "wr_addr": 0, "wr_data": 0}
+    idle = {"base": 0, "length": 1, "increment": 0, "swap_req": 0, "swap_force": 0, "wr_en": 0,
+            "wr_addr": 0, "wr_data": 0}
     await bench.start(idle=idle)
 
     async def control(**kw):           # one cycle with en = 0
         await bench.cycle_with({**idle, **kw}, (), 0)
 
-    async def load(bank, words):
+    async def load(base, words):
         for a, w in enumerate(words):
-            await control(wr_en=1, wr_bank=bank, wr_addr=a, wr_data=int(w))
-            ref.banks[bank, a] = int(w)
+            await control(wr_en=1, wr_addr=base + a, wr_data=int(w))
+            ref.pool[base + a] = int(w)
 
     def random_words(n):
         # include the extreme words so interpolation differences reach 2**16 - 1
@@ -201,34 +212,35 @@ async def stream_replay(dut):
     state_hist = []
     rtl_state = []
 
-    async def run(n, length, inc):
+    async def run(n, base, length, inc):
         nonlocal got
-        obs, t = await bench.steps([{**idle, "length": length, "increment": inc}] * n,
+        obs, t = await bench.steps([{**idle, "base": base, "length": length, "increment": inc}] * n,
                                    ("o", "index", "bank", "active_length"))
         for s in obs:
             rtl_state.append((s["bank"], s["index"], s["active_length"]))
             state_hist.append(ref.word(interp))
             phases.append((ref.bank, ref.idx, ref.frac))
-            ref.step(length, inc)
+            ref.step(base, length, inc)
             got.append(s["o"])
         times.extend(t)
 
-    # 1: bank 1 forced active, a length that is not a power of two, a rate
-    #    that does not divide 2**32 (wrap with a carried fraction)
+    # 1: a stream at the pool's start forced active, a length that is not a
+    #    power of two, a rate that does not divide 2**32 (wrap with a carried fraction)
     L1 = int(p["length1"])
     inc1 = int(p["inc1"])
-    await load(1, random_words(L1))
-    await control(length=L1, increment=inc1, swap_force=1)
-    ref.switch(L1, inc1)
-    await run(p["n1"], L1, inc1)
-    # 2: new words into bank 0, new length/rate, switch at the period boundary
+    B2 = depth // 2
+    await load(0, random_words(L1))
+    await control(base=0, length=L1, increment=inc1, swap_force=1)
+    ref.switch(0, L1, inc1)
+    await run(p["n1"], 0, L1, inc1)
+    # 2: new words into the pool's second half, new length/rate, switch at the period boundary
     L2 = int(p["length2"])
     inc2 = int(p["inc2"])
-    await load(0, random_words(L2))
-    await control(length=L2, increment=inc2, swap_req=1)
+    await load(B2, random_words(L2))
+    await control(base=B2, length=L2, increment=inc2, swap_req=1)
     ref.pending = 1
-    await run(p["n2"], L2, inc2)
-    assert ref.bank == 0, "the test never reached the period boundary that switches banks"
+    await run(p["n2"], B2, L2, inc2)
+    assert ref.bank == 0, "the test never reached the period boundary that switches streams"
     # o during step n is the word of the state of step n - latency; the first
     # `lat` steps of each run show the previous word and are checked from the
     # continuous sequence (states recorded across control cycles).

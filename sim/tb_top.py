@@ -24,10 +24,10 @@ __all__ = ["scenario_from_params", "check_bulk_run"]
 def scenario_from_params(p: dict) -> Scenario:
     if p["kind"] == "farm":
         return farm_scenario(p["channels"], p["seed"], gap_thresh=p["gap_thresh"],
-                             stall_thresh=p["stall_thresh"])
+                             stall_thresh=p["stall_thresh"], contract=p.get("contract"))
     return random_scenario(p["channels"], p["seed"], kind=p["kind"], interpolation=p.get("interpolation", "fir"),
                            gap_thresh=p["gap_thresh"], stall_thresh=p["stall_thresh"],
-                           pulses=p.get("pulses", 40))
+                           pulses=p.get("pulses", 40), contract=p.get("contract"))
 
 
 def check_bulk_run(sc: Scenario, summary: dict, *, expected=None, overflow_observed=None) -> dict:

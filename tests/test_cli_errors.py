@@ -148,7 +148,7 @@ def test_preview_missing_config(tmp_path, capsys):
 
 # -------------------------------------------------------------------- verilog
 
-VERILOG = ["verilog", "--channels", "1", "--stream-depth", "16", "--max-delay", "126",
+VERILOG = ["verilog", "--channels", "1", "--pool-words", "16", "--max-delay", "126",
            "--max-increment", "2"]
 
 
@@ -221,15 +221,15 @@ def test_verilog_manifest_does_not_fit(tmp_path, capsys):
 
 def test_verilog_manifest_stream_longer_than_the_ram(tmp_path, capsys):
     path = write_manifest(tmp_path / "m", lengths=(20,))
-    verilog_error(capsys, tmp_path, ["--manifest", path], "stream depth 16",
+    verilog_error(capsys, tmp_path, ["--manifest", path], "pool words 16",
                   "Stream length of channel 0 ('w0') must be in [8, 16] words, not 20")
 
 
-def test_verilog_bad_stream_depth(tmp_path, capsys):
+def test_verilog_bad_pool_words(tmp_path, capsys):
     out = tmp_path / "v" / "top.v"
-    status, err = rast(["verilog", "--stream-depth", "1000", "-o", out], capsys)
+    status, err = rast(["verilog", "--pool-words", "1000", "-o", out], capsys)
     assert_user_error(status, err, "verilog", "bad replay block parameters",
-                      "power of two of at least 2, not 1000")
+                      "Pool words must be a power of two from 16 to 16384 or a multiple of 16384, not 1000")
     assert not out.parent.exists()
 
 
@@ -256,12 +256,13 @@ def no_build(monkeypatch):
 
 
 @pytest.mark.parametrize("args, needles", [
-    (["--channels", "12"], ["12 channels", "DP16KD block RAMs", "the LFE5U-85F has 208"]),
-    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "the LFE5U-25F has 56"]),
+    (["--channels", "16"], ["16 channels", "160 MULT18X18D", "the LFE5U-85F has 156"]),
+    (["--pool-words", "98304"], ["98304-word stream pool", "DP16KD block RAMs", "the LFE5U-85F has 208"]),
+    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 146 DP16KD", "the LFE5U-25F has 56"]),
     (["--clock-mhz", "1000"], ["PLL output frequency must be in", "not 1000.0"]),
     (["--clock-mhz", "0"], ["Clock must be a positive number of MHz"]),
     (["--baud", "50000000"], ["Baud rate 50000000 is too fast"]),
-    (["--stream-depth", "1000"], ["Stream depth must be a power of two", "not 1000"]),
+    (["--pool-words", "1000"], ["Pool words must be a power of two from 16 to 16384", "not 1000"]),
     (["--channels", "0"], ["Channel count must be a positive integer, not 0"]),
     (["--board", "none"], ["--board none needs --device"]),
     (["--board", "ulx3s-25f", "--device", "LFE5U-85F"], ["leave out --board ulx3s-25f"]),
@@ -358,12 +359,12 @@ def test_load_manifest_that_does_not_fit_writes_nothing(tmp_path, capsys, monkey
         def read(self, n): return b""
         def reset_input_buffer(self): pass
 
-    bitstream = ReplayContract(channels=1, stream_depth=64, max_delay=60, max_increment=14)
+    bitstream = ReplayContract(channels=1, pool_words=64, max_delay=60, max_increment=14)
     monkeypatch.setattr(serial, "Serial", Port)
     monkeypatch.setattr(rl, "read_contract", lambda bridge: bitstream)
     write_manifest(tmp_path / "m", lengths=(3, 4), delays=(100, 2))
     assert_user_error(*rast(["load", tmp_path / "m", "--port", "fake"], capsys), "load",
-                      "does not fit the bitstream's replay block (1 channel(s), stream depth 64",
+                      "does not fit the bitstream's replay block (1 channel(s), pool words 64",
                       "2 windmills")
     assert sent == []
 

@@ -17,12 +17,12 @@ import pytest
 
 from rast.model.fixedpoint import (BOARD_LATENCY, BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY,
                                    ReplayContract, pack_iq)
-from rast.model.regmap import manifest_to_register_writes
+from rast.model.loadplan import manifest_to_register_writes
 from rast.sim import runner
 from rast.sim.board_io import BUILD_ARGS, board_io_sources
 
 MODULE = "rast.sim.tb_board_io"
-BUILD = dict(channels=2, stream_depth=16, max_delay=62, max_increment=6, interpolation="hold")
+BUILD = dict(channels=2, pool_words=16, max_delay=62, max_increment=6, interpolation="hold")
 CLK_HZ = 20e6
 DIVISOR = 4
 DELAY = 40                       # samples: the windmill's delay_samples

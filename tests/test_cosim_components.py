@@ -8,8 +8,8 @@ import pytest
 
 from rast.hdl.cmult import ComplexMultiplier
 from rast.hdl.delay_line import DelayLine
-from rast.hdl.stream_replay import StreamReplay
 from rast.model.fixedpoint import stream_latency
+from rast.sim.pooled_stream import PooledStream
 from rast.sim.pytest_support import SIMULATOR_PARAMS, cocotb_run, verilog_of
 
 MODULE = "rast.sim.tb_components"
@@ -51,15 +51,16 @@ def test_delay_line(simulator, max_delay, en_pattern):
     (64, 2 ** 31 + 12345, 3, int(0.05 * 2 ** 32)),
 ], ids=["frac-then-max", "full-then-slow"])
 def test_stream_replay(simulator, interpolation, en_pattern, rates):
-    depth = 64
-    dut = StreamReplay(depth, interpolation=interpolation)
+    depth = 128                                # the two streams in its two halves
+    dut = PooledStream(depth, interpolation=interpolation)
     L1, inc1, L2, inc2 = rates
     name = f"stream_{interpolation}"
+    R = dut.stream.refill_samples
     # long enough to pass several wraps of stream 1, the switch, and wraps of stream 2
-    n1 = int(3 * L1 * 2 ** 32 / inc1) + 10
-    n2 = int(L1 * 2 ** 32 / inc1) + int(3 * L2 * 2 ** 32 / inc2) + 10
+    n1 = 2 * R + int(3 * L1 * 2 ** 32 / inc1) + 10
+    n2 = R + int(L1 * 2 ** 32 / inc1) + int(3 * L2 * 2 ** 32 / inc2) + 10
     cocotb_run({f"{name}.v": verilog_of(dut, name)}, name, MODULE, "stream_replay",
                simulator=simulator, name=f"{name}-{en_pattern}-{L1}-{L2}",
                tb_params=dict(depth=depth, interpolation=interpolation, latency=stream_latency(interpolation),
-                              length1=L1, inc1=inc1, length2=L2, inc2=inc2, n1=n1, n2=n2,
+                              length1=L1, inc1=inc1, length2=L2, inc2=inc2, n1=n1, n2=n2, refill=R,
                               seed=3, en_pattern=en_pattern))

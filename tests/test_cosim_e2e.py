@@ -29,7 +29,7 @@ CONFIG = Path(__file__).resolve().parent.parent / "examples" / "two_windmills.to
 def run_e2e(simulator, seconds, name, require_peaks=True, noise_rms=0.0):
     e = prepare(CONFIG, seconds, noise_rms=noise_rms)
     c = e.scenario.contract
-    sources, top = top_sources(c.channels, stream_depth=c.stream_depth, max_delay=c.max_delay,
+    sources, top = top_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
                                interpolation=c.interpolation,
                                max_increment=c.max_increment)
     run_dir = cocotb_run(sources, top, "rast.sim.tb_e2e", "e2e", simulator=simulator, public_all=False,

@@ -11,6 +11,8 @@ from amaranth.sim import Simulator
 from rast.hdl.cmult import ComplexMultiplier
 from rast.hdl.delay_line import DelayLine
 from rast.hdl.stream_replay import StreamReplay
+from rast.hdl.stream_pool import StreamPool
+from rast.sim.pooled_stream import PooledStream
 from rast.hdl.iq import IQ
 from rast.model import datapath as dp
 from rast.model.fixedpoint import pack_iq, unpack_iq, PHASE_FRAC_BITS, ReplayContract
@@ -49,24 +51,34 @@ def test_delay_line_parameters():
 
 
 def test_stream_replay_parameters():
-    with pytest.raises(ValueError, match=r"^Stream depth must be a power of two of at least 2, not 6$"):
+    with pytest.raises(ValueError, match=r"^Pool words must be an integer of at least 16, not 6$"):
         StreamReplay(6)
-    with pytest.raises(ValueError, match=r"^Initial stream must have at most 4 words, not 5$"):
-        StreamReplay(4, init=[0] * 5, interpolation="hold")
+    with pytest.raises(ValueError, match=r"^Channels must be an integer in \[1, 64\], not 0$"):
+        StreamReplay(16, channels=0)
     with pytest.raises(ValueError, match=r"^Interpolation must be one of hold, linear, fir, not 'cubic'$"):
         StreamReplay(16, interpolation="cubic")
-    with pytest.raises(ValueError, match=r"^Stream depth must be at least 8 with fir interpolation, not 4$"):
-        StreamReplay(4)
+    with pytest.raises(ValueError, match=r"^Initial length must be an integer in \[8, 16\], not 4$"):
+        StreamReplay(16, init_length=4)
+    with pytest.raises(ValueError, match=r"^Initial base must be a pool address in \[0, 15\], not 16$"):
+        StreamReplay(16, init_base=16)
     with pytest.raises(ValueError, match=r"^Initial increment must be an integer in \[0, 5592405\], not 5592406$"):
         StreamReplay(16, init_increment=5592406)
+    with pytest.raises(ValueError, match=r"^Initial increment must be an integer in \[0, 2147483647\], not 2147483648$"):
+        StreamReplay(16, channels=2, interpolation="hold", init_increment=1 << 31)
+    with pytest.raises(ValueError, match=r"^Pool words must be a power of two from 16 to 16384 or a "
+                                         r"multiple of 16384, not 48$"):
+        StreamPool(48, 4)
 
 
 @pytest.mark.parametrize("args, exc, msg", [
     (dict(channels=0), ValueError, r"^Channel count must be a positive integer, not 0$"),
     (dict(channels=65), ValueError, r"^Channel count must be at most 64, not 65$"),
     (dict(channels=2.0), TypeError, r"^Channel count must be a positive integer, not 2.0$"),
-    (dict(stream_depth=100), ValueError,
-     r"^Stream depth must be a power of two of at least 2, not 100$"),
+    (dict(pool_words=100), ValueError,
+     r"^Pool words must be a power of two from 16 to 16384 or a multiple of 16384, not 100$"),
+    (dict(pool_words=8), ValueError, r"^Pool words must be an integer of at least 16, not 8$"),
+    (dict(pool_words=20000), ValueError,
+     r"^Pool words must be a power of two from 16 to 16384 or a multiple of 16384, not 20000$"),
     (dict(max_delay=-1), ValueError, r"^Maximum delay must be a non-negative integer, not -1$"),
     (dict(cmult_form="x"), ValueError,
      r"^Complex multiplier form must be one of 4mult, 3mult, not 'x'$"),
@@ -182,12 +194,12 @@ def test_stream_replay_wraps_at_length(interpolation):
     depth, length = 16, 11
     wi, wq = rng.integers(-32768, 32768, depth), rng.integers(-32768, 32768, depth)
     words = pack_iq(wi, wq)
-    c = ReplayContract(channels=1, stream_depth=depth, interpolation=interpolation)
+    c = ReplayContract(channels=1, pool_words=depth, interpolation=interpolation)
     # FIR: the largest rates it takes, so J advances as often as allowed
     inc = int(rng.integers(c.max_phase_increment // 5, c.max_phase_increment + 1))
-    dut = StreamReplay(depth, interpolation=interpolation, init=list(words), init_length=length,
+    dut = PooledStream(depth, interpolation=interpolation, init=list(words), init_length=length,
                        init_increment=inc)
-    # FIR: the phase is held at 0 for the refill after reset
+    # the phase is held at 0 for the refill after reset
     mute = c.refill_samples
     steps = mute + length * ONE // inc + 600
     idx, got = _run_stream(dut, steps, en_pat=(1, 1, 0))
@@ -207,11 +219,14 @@ def test_stream_replay_wraps_at_length(interpolation):
 def test_stream_replay_long_run_exact_period():
     # 3 words at 0.3709... words per sample: thousands of wraps, index exact at every step
     inc = 1593012345
-    dut = StreamReplay(4, interpolation="hold", init=[1, 2, 3], init_length=3, init_increment=inc)
+    dut = PooledStream(16, interpolation="hold", init=[1, 2, 3], init_length=3, init_increment=inc)
     steps = 20000
-    idx, _ = _run_stream(dut, steps)
-    ph = dp.phase_sequence(0, inc, 3, steps)
+    mute = dut.stream.refill_samples
+    idx, got = _run_stream(dut, steps)
+    ph = np.concatenate([np.zeros(mute, dtype=np.int64), dp.phase_sequence(0, inc, 3, steps - mute)])
     assert (idx == ph >> 32).all()
+    lat = dut.latency
+    assert (got[mute + lat:, 0] == (ph[mute:steps - lat] >> 32) + 1).all()      # words 1, 2, 3
 
 
 @pytest.mark.parametrize("rate", [Fraction(1, 3), Fraction(4321, 1000000), Fraction(999, 1000)])

@@ -6,14 +6,14 @@ import numpy as np
 
 from rast.model.datapath import cmult, gain_scale
 from rast.model.fixedpoint import ReplayContract, saturate
-from rast.model.regmap import registers_doc
+from rast.model.regdoc import registers_doc
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
 def test_registers_md_is_generated_from_the_map():
     assert (DOCS / "registers.md").read_text() == registers_doc(), \
-        "docs/registers.md is stale: python -m rast.model.regmap > docs/registers.md"
+        "docs/registers.md is stale: python -m rast.model.regdoc > docs/registers.md"
 
 
 def test_fixed_point_worked_example():

@@ -9,21 +9,24 @@ from rast.hdl.replay_top import WindFarmReplay
 from rast.model import datapath as dp
 from rast.model.fixedpoint import (pack_iq, FIR_MAX_INCREMENT, FIR_MIN_LENGTH, FIR_REFILL_SAMPLES,
                                    FIR_PHASES, PHASE_FRAC_BITS, STREAM)
-from rast.model.regmap import ChannelInit, CTRL_ENABLE, CTRL_SWAP
+from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP
+from rast.model.powerup import ChannelInit
 
 from hdl_harness import run_replay, model_replay, assert_same
 
-KW = dict(stream_depth=32, max_delay=12, max_increment=4, interpolation="fir")
+KW = dict(pool_words=64, max_delay=12, max_increment=4, interpolation="fir")
 
 
 def _inits(rng, n, depth=32):
-    out = []
+    """Random streams of up to ``depth`` words, one after the other in the pool."""
+    out, base = [], 0
     for _ in range(n):
         length = int(rng.integers(FIR_MIN_LENGTH, depth + 1))
         words = pack_iq(rng.integers(-32768, 32768, length), rng.integers(-32768, 32768, length))
         inc = int(rng.integers(FIR_MAX_INCREMENT // 2, FIR_MAX_INCREMENT + 1))
         out.append(ChannelInit(tuple(int(w) for w in words), inc, int(rng.integers(1 << 15, 1 << 17)),
-                               int(rng.integers(0, 4)), True))
+                               int(rng.integers(0, 4)), True, base))
+        base += length
     return out
 
 
@@ -44,33 +47,40 @@ def test_fir_at_its_highest_rate_matches_model(valid, ready):
     T = 2500
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     hi, _, _ = _check(dut, inits, xi, xq, valid=valid, ready=ready)
-    # muted while the MAC refills after reset, then playing
-    assert np.count_nonzero(hi[dut.latency + FIR_REFILL_SAMPLES:]) > 0.9 * (T - dut.latency - FIR_REFILL_SAMPLES)
+    # muted while the cache fills and the MAC computes after reset, then playing
+    R = dut.contract.refill_samples
+    assert np.count_nonzero(hi[dut.latency + R:]) > 0.9 * (T - dut.latency - R)
 
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_fir_reloads_and_forced_switches_match_model(seed):
-    """Stream reloads switching at the period boundary, forced switches (also
-    in the middle of a refill), rate and length writes beyond the clamps."""
+    """Stream reloads into free pool space switching at the period boundary,
+    forced switches (also in the middle of a refill), rate and length writes
+    beyond the clamps."""
+    from rast.sim.scenario import PoolTracker
     rng = np.random.default_rng(200 + seed)
     N = 2
     inits = _inits(rng, N, depth=16)
-    dut = WindFarmReplay(N, init=inits, **dict(KW, stream_depth=16))
+    dut = WindFarmReplay(N, init=inits, **KW)
     a = dut.register_map.addr
+    pool = PoolTracker(dut.contract, [(i.base, len(i.words)) for i in inits])
     T = 3000
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     ops = []
     for k in sorted(rng.integers(0, T, 40).tolist()):
         l = int(rng.integers(0, N))
         r = rng.integers(0, 6)
-        if r == 0:                       # reload, switch at the period boundary
-            ops += [(k, "w", a("STREAM_SEL"), l), (k, "w", a("STREAM_ADDR"), 0)]
-            ops += [(k, "w", a("STREAM_DATA"), int(rng.integers(0, 1 << 32))) for _ in range(16)]
-            ops += [(k, "w", a("LENGTH", l), int(rng.integers(1, 20))),           # clamped to 8..16
+        length = int(rng.integers(1, 20))
+        base = pool.place(l, max(length, 8)) if r == 0 else None
+        if r == 0 and base is not None:  # reload, switch at the period boundary
+            ops += [(k, "w", a("STREAM_ADDR"), base)]
+            ops += [(k, "w", a("STREAM_DATA"), int(rng.integers(0, 1 << 32))) for _ in range(max(length, 8))]
+            ops += [(k, "w", a("BASE", l), base), (k, "w", a("LENGTH", l), length),     # clamped to 8..
                     (k, "w", a("PHASE_INC", l), int(rng.integers(1 << 20, 1 << 32))),  # clamped
                     (k, "w", a("CTRL", l), CTRL_ENABLE | CTRL_SWAP)]
         elif r == 1:                     # forced switch (disabled channel)
             ops += [(k, "w", a("CTRL", l), CTRL_SWAP), (k + 1, "w", a("CTRL", l), CTRL_ENABLE)]
+            pool.forced_switch(l)
         elif r == 2:
             ops.append((k, "w", a("GAIN", l), int(rng.integers(0, 1 << 17))))
         elif r == 3:

@@ -10,8 +10,9 @@ from replay_formal import run_check   # noqa: E402
 
 
 @pytest.mark.parametrize("name", [
-    "stream_address",          # k-induction: index < active length <= depth, always
+    "stream_address",          # k-induction: index < active length <= pool, fetches inside the stream
     "stream_address_interp",
+    "stream_address_fir",
     "delay_exact",             # BMC: output == input of 3 + d enabled samples earlier
     pytest.param("delay_exact_deep", marks=pytest.mark.slow),
 ])

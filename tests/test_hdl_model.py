@@ -8,17 +8,18 @@ import pytest
 
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.regmap import ChannelInit, CTRL_ENABLE, CTRL_SWAP
+from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP
+from rast.model.powerup import ChannelInit
 
 
 def _random_session(seed, lookback=None):
     rng = np.random.default_rng(seed)
-    c = ReplayContract(channels=3, stream_depth=8, max_delay=30, max_increment=9,
+    c = ReplayContract(channels=3, pool_words=32, max_delay=30, max_increment=9,
                        interpolation=("hold", "linear", "fir")[seed % 3])
     inits = [ChannelInit(tuple(int(w) for w in pack_iq(rng.integers(-32768, 32768, 5),
                                                        rng.integers(-32768, 32768, 5))),
                          int(rng.integers(0, 1 << 32)), int(rng.integers(0, 1 << 17)),
-                         int(rng.integers(0, 9)), True) for _ in range(3)]
+                         int(rng.integers(0, 9)), True, 5 * l) for l in range(3)]
     m = ReplayModel(c, inits)
     if lookback is not None:
         m._lookback = lookback
@@ -34,9 +35,10 @@ def _random_session(seed, lookback=None):
         elif r == 1:
             m.write(a("GAIN", l), int(rng.integers(0, 1 << 17)))
         elif r == 2:
-            m.write(a("STREAM_SEL"), l)
+            m.write(a("STREAM_ADDR"), int(rng.integers(0, 32)))
             for _ in range(3):
                 m.write(a("STREAM_DATA"), int(rng.integers(0, 1 << 32)))
+            m.write(a("BASE", l), int(rng.integers(0, 32)))
             m.write(a("LENGTH", l), int(rng.integers(1, 9)))
             m.write(a("CTRL", l), CTRL_ENABLE | CTRL_SWAP)
         elif r == 3:

@@ -9,22 +9,25 @@ import pytest
 from rast.hdl.replay_top import WindFarmReplay
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import pack_iq, unpack_iq, ReplayContract
-from rast.model.regmap import (ChannelInit, register_map, manifest_to_register_writes,
-                               manifest_channel_inits, ID_VALUE, CTRL_ENABLE, CTRL_SWAP, CTRL_BANK)
+from rast.model.regmap import register_map, ID_VALUE, CTRL_ENABLE, CTRL_SWAP, CTRL_BANK
+from rast.model.loadplan import manifest_to_register_writes, manifest_channel_inits
+from rast.model.powerup import ChannelInit
 
 from hdl_harness import run_replay, model_replay, assert_same, assert_reads
 
 # Hold: the tests below check exact words and echo positions (FIR: test_hdl_fir.py).
-KW = dict(stream_depth=16, max_delay=20, max_increment=6, interpolation="hold")
+KW = dict(pool_words=256, max_delay=20, max_increment=6, interpolation="hold")
 
 
 def rand_inits(rng, n, depth=16, enable=True):
-    out = []
+    """Random streams of up to ``depth`` words, one after the other in the pool."""
+    out, base = [], 0
     for l in range(n):
         length = int(rng.integers(1, depth + 1))
         words = pack_iq(rng.integers(-32768, 32768, length), rng.integers(-32768, 32768, length))
         out.append(ChannelInit(tuple(int(w) for w in words), int(rng.integers(0, 1 << 32)),
-                               int(rng.integers(0, 1 << 17)), int(rng.integers(0, 7)), enable))
+                               int(rng.integers(0, 1 << 17)), int(rng.integers(0, 7)), enable, base))
+        base += length
     return out
 
 
@@ -91,16 +94,17 @@ def test_every_delay_echo_position(channel):
     L = dut.latency
     base_sum = sum(inits[l].delay for l in range(channel + 1))
     per = L + KW["max_delay"] + 3 * KW["max_increment"] + 4
-    T = per * (maxd + 1)
+    settle = dut.contract.refill_samples          # muted after reset while the caches fill
+    T = settle + per * (maxd + 1)
     xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     ops = []
     for d in range(maxd + 1):
-        start = d * per
+        start = settle + d * per
         xi[start + 1] = 20000
         ops += [(start, "w", rmap.addr("DELAY", channel), d), (start, "w", rmap.addr("APPLY"), 1)]
     hi, hq, done, _ = check(dut, inits, xi, xq, ops, valid=(1, 0, 1), name="delays")
     for d in range(maxd + 1):
-        seg = hi[d * per + 1: (d + 1) * per + 1]
+        seg = hi[settle + d * per + 1: settle + (d + 1) * per + 1]
         hit = np.nonzero(seg)[0]
         assert hit.tolist() == [L + base_sum + d], f"delay {d}: echo at {hit.tolist()}, expected {L + base_sum + d}"
         assert seg[hit[0]] == 10000
@@ -113,12 +117,13 @@ def test_full_scale_in_phase_saturates_and_flags_overflow():
     dut = WindFarmReplay(N, init=inits, **KW)
     rmap = dut.register_map
     L = dut.latency
-    T = 3 * L + 40
+    R = dut.contract.refill_samples               # muted after reset while the caches fill
+    T = R + 3 * L + 40
     xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
-    xi[:5] = -32768; xq[:5] = -32768        # full-scale burst
+    xi[R:R + 5] = -32768; xq[R:R + 5] = -32768        # full-scale burst
     st = rmap.addr("STATUS")
-    ops = [(2, "r", st, 0), (L + 3, "r", st, 0), (L + 3, "r", st, 0), (L + 20, "r", st, 0),
-           (L + 22, "r", st, 0)]
+    ops = [(R + 2, "r", st, 0), (R + L + 3, "r", st, 0), (R + L + 3, "r", st, 0),
+           (R + L + 20, "r", st, 0), (R + L + 22, "r", st, 0)]
     hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 1, 0), name="full scale")
     # (-1-1j)*(-1-1j) = 2j: Q saturates high, I is 0
     assert hq.max() == 32767 and (hq == 32767).sum() >= 4
@@ -157,16 +162,16 @@ def test_register_writes_mid_stream():
 def test_identification_registers():
     dut = WindFarmReplay(2, **KW)
     rmap = dut.register_map
-    ops = [(0, "r", rmap.addr(n), 0) for n in ("ID", "CONFIG", "LATENCY", "STREAM_DEPTH", "MAX_DELAY",
+    ops = [(0, "r", rmap.addr(n), 0) for n in ("ID", "CONFIG", "LATENCY", "POOL_WORDS", "MAX_DELAY",
                                                "MAX_INCREMENT")]
     _, _, done, _ = check(dut, [], np.zeros(4, np.int64), np.zeros(4, np.int64), ops)
     vals = [v for *_, v in done]
-    assert vals == [ID_VALUE, 2, dut.latency, 16, 20, 6]
+    assert vals == [ID_VALUE, 2, dut.latency, KW["pool_words"], 20, 6]
 
 
-def test_bank_switch_at_period_boundary():
-    """A new stream written while running takes over exactly after the old
-    stream's last word; writes while the switch is pending are ignored."""
+def test_switch_at_period_boundary():
+    """A new stream written into free pool space while running takes over
+    exactly after the old stream's last word, after the refill's muted samples."""
     length_old, length_new = 5, 3
     old = pack_iq([1000 * (k + 1) for k in range(length_old)], [0] * length_old)
     new = pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)
@@ -174,24 +179,28 @@ def test_bank_switch_at_period_boundary():
     inits = [ChannelInit(tuple(int(w) for w in old), inc, 1 << 16, 0, True)]
     dut = WindFarmReplay(1, init=inits, **KW)
     rmap = dut.register_map
-    T = 160
+    R = dut.contract.refill_samples
+    T = 2 * R + 160
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     a = rmap.addr
-    ops = [(10, "w", a("STREAM_SEL"), 0), (10, "w", a("STREAM_ADDR"), 0)]
-    ops += [(11, "w", a("STREAM_DATA"), int(w)) for w in new]
-    ops += [(12, "w", a("LENGTH", 0), length_new), (12, "w", a("PHASE_INC", 0), 1 << 31),
-            (13, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (13, "r", a("CTRL", 0), 0),
-            (13, "w", a("STREAM_DATA"), 0x12345678),          # ignored: pending
-            (60, "r", a("CTRL", 0), 0)]
-    hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 0, 1, 1), name="bank switch")
+    k0 = R + 10
+    ops = [(k0, "w", a("STREAM_ADDR"), 100)]
+    ops += [(k0 + 1, "w", a("STREAM_DATA"), int(w)) for w in new]
+    ops += [(k0 + 2, "w", a("BASE", 0), 100), (k0 + 2, "w", a("LENGTH", 0), length_new),
+            (k0 + 2, "w", a("PHASE_INC", 0), 1 << 31),
+            (k0 + 3, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k0 + 3, "r", a("CTRL", 0), 0),
+            (k0 + 50, "r", a("CTRL", 0), 0), (k0 + 50, "r", a("BASE", 0), 0)]
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 0, 1, 1), name="switch")
     reads = [v for k, kind, ad, v in done if kind == "r"]
     assert reads[0] == CTRL_ENABLE | CTRL_SWAP            # pending
-    assert reads[1] == CTRL_ENABLE | CTRL_BANK            # switched to bank 1
+    assert reads[1] == CTRL_ENABLE | CTRL_BANK            # switched
+    assert reads[2] == 100
     # the output is x * word / 2: old words 500..2500, new words -250, -500, -750
     L = dut.latency
-    out = hi[L:]
+    out = hi[L + R:]
     first_new = int(np.nonzero(out < 0)[0][0])
-    assert out[first_new - 1] == 2500, "switch not at the end of the old period"
+    assert out[first_new - R - 1] == 2500, "switch not at the end of the old period"
+    assert not out[first_new - R:first_new].any(), "not muted while the cache refills"
     assert out[first_new] == -250, "new stream does not start at word 0"
     assert set(out[first_new:].tolist()) == {-250, -500, -750}
 
@@ -215,14 +224,15 @@ def test_manifest_register_writes_place_echoes():
             for l, (n, s, d) in enumerate(zip(names, streams, delays))]},
     }
     writes = manifest_to_register_writes(manifest, dut.contract, streams=streams)
-    T = 60
+    p = dut.contract.refill_samples + 2              # after the switches' refill
+    T = p + 60
     xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
-    xi[0] = 16384
+    xi[p] = 16384
     ops = [(0, "w", a, v) for a, v in writes]
     hi, hq, done, _ = check(dut, [], xi, xq, ops, valid=(1, 0), name="manifest", hold=True)
     # channels 0 and 1 share a range: their echoes add (8192+16384)/2 ... at delays[0]
-    assert np.nonzero(hi)[0].tolist() == sorted(set(delays))
-    assert hi[delays[0]] == (8192 + 16384) // 2 and hi[delays[2]] == 24576 // 2
+    assert (np.nonzero(hi)[0] - p).tolist() == sorted(set(delays))
+    assert hi[p + delays[0]] == (8192 + 16384) // 2 and hi[p + delays[2]] == 24576 // 2
     with pytest.raises(ValueError, match=r"shorter than the replay block's fixed latency"):
         bad = dict(manifest, registers={"channels": [dict(manifest["registers"]["channels"][0],
                                                           delay_increment=L - 1)]})
@@ -233,11 +243,13 @@ def test_manifest_register_writes_place_echoes():
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_random_register_stress(seed):
-    """Dense random register traffic (stream writes, bank switches forced and
-    at wraps, rate/length changes, delays, status reads) racing the samples."""
+    """Dense random register traffic (stream writes, switches forced and at
+    wraps, base/rate/length changes, delays, status reads) racing the samples.
+    Stream words are written only where no channel can play (the pool's upper
+    half): a playing stream's words are the host's to keep."""
     rng = np.random.default_rng(100 + seed)
     N = 2
-    kw = dict(stream_depth=4, max_delay=5, max_increment=3)
+    kw = dict(pool_words=32, max_delay=5, max_increment=3)
     inits = rand_inits(rng, N, depth=4)
     dut = WindFarmReplay(N, init=inits, interpolation=("hold", "linear")[seed % 2], **kw)
     a = dut.register_map.addr
@@ -250,9 +262,10 @@ def test_random_register_stress(seed):
         if r == 0:
             ops.append((k, "w", a("CTRL", l), int(rng.integers(0, 4))))
         elif r == 1:
-            ops.append((k, "w", a("STREAM_SEL"), l))
+            ops.append((k, "w", a("BASE", l), int(rng.choice([0, 4, 8]))))
         elif r in (2, 3):
-            ops.append((k, "w", a("STREAM_DATA"), int(rng.integers(0, 1 << 32))))
+            ops += [(k, "w", a("STREAM_ADDR"), int(rng.integers(16, 32))),
+                    (k, "w", a("STREAM_DATA"), int(rng.integers(0, 1 << 32)))]
         elif r == 4:
             ops.append((k, "w", a("LENGTH", l), int(rng.integers(0, 7))))
         elif r == 5:
@@ -264,7 +277,7 @@ def test_random_register_stress(seed):
         elif r == 8:
             ops.append((k, "r", a("CTRL", l), 0))
         else:
-            name = str(rng.choice(["DELAY", "APPLY", "STREAM_ADDR"]))
+            name = str(rng.choice(["DELAY", "APPLY"]))
             ops.append((k, "w", a(name, l if name == "DELAY" else None), int(rng.integers(0, 8))))
     check(dut, inits, xi, xq, ops, valid=(1, 1, 0), ready=(1, 1, 1, 0), name=f"stress {seed}")
 
@@ -274,12 +287,14 @@ def test_forced_switch_racing_a_wrap():
     a pending switch: both switches happen (bank toggles twice), as in the model."""
     words = [int(pack_iq([1000 * (k + 1)], [0])[0]) for k in range(4)]
     inits = [ChannelInit((words[0],), (1 << 32) - 1, 1 << 16, 0, True)]
-    dut = WindFarmReplay(1, init=inits, stream_depth=4, max_delay=3, max_increment=1, interpolation="hold")
+    dut = WindFarmReplay(1, init=inits, pool_words=16, max_delay=3, max_increment=1, interpolation="hold")
     a = dut.register_map.addr
-    T = 80
+    R = dut.contract.refill_samples                # each switch mutes (phase held) this long
+    T = 11 * (R + 6)
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
-    ops = [(0, "w", a("STREAM_DATA"), words[1]), (0, "w", a("LENGTH", 0), 1)]
-    for k in range(5, 60, 6):
+    ops = [(0, "w", a("STREAM_ADDR"), 8), (0, "w", a("STREAM_DATA"), words[1]),
+           (0, "w", a("BASE", 0), 8), (0, "w", a("LENGTH", 0), 1)]
+    for k in range(R + 5, 11 * (R + 6) - 10, R + 6):
         ops += [(k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "w", a("CTRL", 0), CTRL_SWAP),
                 (k, "r", a("CTRL", 0), 0), (k, "w", a("CTRL", 0), CTRL_ENABLE)]
     hi, hq, done, model = check(dut, inits, xi, xq, ops, name="race")
@@ -292,8 +307,8 @@ def test_forced_switch_racing_a_wrap():
 def test_sixteen_channels():
     rng = np.random.default_rng(16)
     inits = rand_inits(rng, 16, depth=4)
-    dut = WindFarmReplay(16, init=inits, stream_depth=4, max_delay=5, max_increment=2, interpolation="hold")
+    dut = WindFarmReplay(16, init=inits, pool_words=64, max_delay=5, max_increment=2, interpolation="hold")
     assert dut.latency == 54
-    T = 160
+    T = dut.contract.refill_samples + 160         # past the caches' first fill
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     check(dut, inits, xi, xq, valid=(1, 1, 0), name="N=16")

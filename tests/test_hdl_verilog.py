@@ -11,10 +11,10 @@ from rast.model.fixedpoint import ReplayContract, pack_iq
 
 
 @pytest.mark.parametrize("args", [
-    ["--channels", "1", "--stream-depth", "16", "--max-delay", "14", "--max-increment", "0"],
-    ["--channels", "3", "--stream-depth", "64", "--max-delay", "62", "--max-increment", "14",
+    ["--channels", "1", "--pool-words", "16", "--max-delay", "14", "--max-increment", "0"],
+    ["--channels", "3", "--pool-words", "64", "--max-delay", "62", "--max-increment", "14",
      "--interpolation", "linear", "--cmult-form", "3mult"],
-    ["--channels", "16", "--stream-depth", "16", "--max-delay", "30", "--max-increment", "6",
+    ["--channels", "16", "--pool-words", "16", "--max-delay", "30", "--max-increment", "6",
      "--interpolation", "hold"],
 ])
 def test_verilog_lints_clean(tmp_path, args):
@@ -69,8 +69,8 @@ def _memory_init(body, name="storage"):
 
 
 def test_manifest_baked_into_power_up_state(tmp_path):
-    """Each manifest value lands where it belongs: the stream words in channel 0's
-    first RAM bank, gain, delay (less the fixed latency), length, increment and
+    """Each manifest value lands where it belongs: the stream words at the pool's
+    start, gain, delay (less the fixed latency), base, length, increment and
     enable in channel 0's registers; channel 1 stays empty and off."""
     n = 8
     words = [int(w) for w in pack_iq([100 * (k + 1) for k in range(n)], [-7 * (k + 1) for k in range(n)])]
@@ -84,26 +84,24 @@ def test_manifest_baked_into_power_up_state(tmp_path):
     }
     (tmp_path / "manifest.json").write_text(json.dumps(manifest))
     out = tmp_path / "baked.v"
-    args = ["--channels", "2", "--stream-depth", "16", "--max-delay", "126", "--max-increment", "2"]
+    args = ["--channels", "2", "--pool-words", "16", "--max-delay", "126", "--max-increment", "2"]
     assert rv.main(args + ["--manifest", str(tmp_path / "manifest.json"), "-o", str(out)]) == 0
     text = out.read_text()
     assert "initial contents from manifest.json: a" in text
-    latency = ReplayContract(channels=2, stream_depth=16, max_delay=126, max_increment=2).latency
+    latency = ReplayContract(channels=2, pool_words=16, max_delay=126, max_increment=2).latency
     modules = _modules(text)
 
-    ram0 = _memory_init(modules["wind_farm_replay.stream0.mem"])
-    assert len(ram0) == 2 * 16                                # two banks of stream_depth words
-    assert ram0 == words + [0] * (2 * 16 - n)                 # bank 0, in order, nothing else
-    assert _memory_init(modules["wind_farm_replay.stream1.mem"]) == [0] * (2 * 16)
+    pool = _memory_init(modules["wind_farm_replay.pool.bank0"])
+    assert pool == words + [0] * (16 - n)                     # from address 0, in order, nothing else
 
     regs = modules["wind_farm_replay.regs"]
     assert _reg_init(regs, "ctrl0_enable") == 1 and _reg_init(regs, "ctrl1_enable") == 0
     assert _reg_init(regs, "gain0_gain") == gain and _reg_init(regs, "gain1_gain") == 0
     assert _reg_init(regs, "delay0_delay") == delay - latency and _reg_init(regs, "delay1_delay") == 0
-    assert _reg_init(regs, "length0_length") == n
+    assert _reg_init(regs, "length0_length") == n and _reg_init(regs, "base0_base") == 0
     assert _reg_init(regs, "phase_inc0_inc") == increment and _reg_init(regs, "phase_inc1_inc") == 0
 
     # Without the manifest every one of them powers up empty.
-    plain = _modules(gv.verilog_text(2, stream_depth=16, max_delay=126, max_increment=2))
-    assert _memory_init(plain["wind_farm_replay.stream0.mem"]) == [0] * (2 * 16)
+    plain = _modules(gv.verilog_text(2, pool_words=16, max_delay=126, max_increment=2))
+    assert _memory_init(plain["wind_farm_replay.pool.bank0"]) == [0] * 16
     assert _reg_init(plain["wind_farm_replay.regs"], "gain0_gain") == 0

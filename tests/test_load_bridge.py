@@ -24,7 +24,7 @@ from rast.model.regmap import ID_VALUE, register_map
 
 DIV = 4            # cycles per UART bit in simulation (the bridge's minimum)
 TIMEOUT = 400      # bridge frame timeout, cycles
-KW = dict(channels=2, stream_depth=64, max_delay=60, max_increment=14)
+KW = dict(channels=2, pool_words=64, max_delay=60, max_increment=14)
 
 
 def make_system():
@@ -210,7 +210,7 @@ def test_load_refuses_streams_that_do_not_fit(tmp_path):
         m["windmills"][0]["length"] = 65
         (folder / "wm0.hex").write_text("00000001\n" * 65)
     msg, writes = _refused(tmp_path, longer)
-    assert "stream depth 64" in msg and "must be in [8, 64] words, not 65" in msg and not writes
+    assert "pool words 64" in msg and "must be in [8, 64] words, not 65" in msg and not writes
 
 
 def test_load_refuses_streams_made_for_another_interpolation(tmp_path):

@@ -8,7 +8,8 @@ import pytest
 from rast.model.config import ConfigError, parse_config
 from rast.model.fixedpoint import (BOARD_INPUT_LATENCY, BOARD_LATENCY, BOARD_OUTPUT_LATENCY,
                                    ReplayContract, path_latency)
-from rast.model.regmap import manifest_channel_inits, manifest_to_register_writes, register_map
+from rast.model.regmap import register_map
+from rast.model.loadplan import manifest_channel_inits, manifest_to_register_writes
 from rast.model.stream import build_farm_streams
 
 
@@ -66,7 +67,7 @@ def _delay0(writes, contract):
 def test_board_target_subtracts_board_and_converters():
     fs = build_farm_streams(parse_config(farm(adc_latency=9, dac_latency=4)))
     m = fs.manifest()
-    c = ReplayContract(channels=2, stream_depth=1 << 15, max_delay=1022, max_increment=62,
+    c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_increment=62,
                        interpolation="hold", sample_rate_hz=20_000_000)
     d = fs.streams[0].delay_samples                       # 267 samples at 2 km, 20 MHz
     assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - 7 - 13
@@ -83,7 +84,7 @@ def test_manifest_without_calibration_loads_as_zero_converters():
     fs = build_farm_streams(parse_config(farm()))
     m = fs.manifest()
     del m["calibration"]
-    c = ReplayContract(channels=2, stream_depth=1 << 15, max_delay=1022, max_increment=62,
+    c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_increment=62,
                        interpolation="hold")
     d = fs.streams[0].delay_samples
     assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - BOARD_LATENCY
@@ -100,14 +101,14 @@ def test_bad_manifest_calibration_is_refused(cal, message):
     m = build_farm_streams(parse_config(farm())).manifest()
     m["calibration"] = cal
     with pytest.raises(ValueError, match=message):
-        manifest_to_register_writes(m, ReplayContract(channels=2, stream_depth=1 << 15,
+        manifest_to_register_writes(m, ReplayContract(channels=2, pool_words=1 << 15,
                                                       interpolation="hold"), target="board")
 
 
 def test_unknown_target_is_refused():
     m = build_farm_streams(parse_config(farm())).manifest()
     with pytest.raises(ValueError, match=r"^Target must be one of board, block, not 'dac'$"):
-        manifest_to_register_writes(m, ReplayContract(channels=2, stream_depth=1 << 15,
+        manifest_to_register_writes(m, ReplayContract(channels=2, pool_words=1 << 15,
                                                       interpolation="hold"), target="dac")
 
 

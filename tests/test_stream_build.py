@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _report(tmp_path, **kw):
-    c = ReplayContract(**{"channels": 8, "stream_depth": 4096, "sample_rate_hz": 20_000_000, **kw})
+    c = ReplayContract(**{"channels": 8, "pool_words": 4096, "sample_rate_hz": 20_000_000, **kw})
     path = tmp_path / "report.json"
     path.write_text(json.dumps({"build": c.to_dict()}))
     return path
@@ -33,17 +33,17 @@ def _readme_config(tmp_path):
 def test_readme_configuration_example_runs_and_fits_the_default_build(tmp_path, capsys):
     config = _readme_config(tmp_path)
     default = BuildConfig()
-    report = _report(tmp_path, channels=default.channels, stream_depth=default.stream_depth,
+    report = _report(tmp_path, channels=default.channels, pool_words=default.pool_words,
                      interpolation=default.interpolation,
                      sample_rate_hz=round(default.clock_mhz * 1e6))
     out = tmp_path / "out"
     assert main(["stream", str(config), "--out", str(out), "--build", str(report)]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     (w,) = manifest["windmills"]
-    assert w["length"] == 3589 <= default.stream_depth
-    assert manifest["build"]["stream_depth"] == default.stream_depth
+    assert w["length"] == 3589 <= default.pool_words
+    assert manifest["build"]["pool_words"] == default.pool_words
     assert manifest["sample_rate_hz"] == default.clock_mhz * 1e6
-    assert "needs a build with at least 1 channel(s), stream depth 4096" in capsys.readouterr().out
+    assert "needs a build with at least 1 channel(s), a stream pool of 4096 words" in capsys.readouterr().out
 
 
 def test_default_bitstream_runs_at_the_examples_sample_rate():
@@ -71,7 +71,7 @@ def test_stream_that_does_not_fit_the_build_is_refused(tmp_path, capsys):
 
 def test_stream_with_more_windmills_than_channels_is_refused(tmp_path, capsys):
     config = ROOT / "examples" / "sec4_3_4_four_windmills.toml"
-    report = _report(tmp_path, channels=2, stream_depth=32768)
+    report = _report(tmp_path, channels=2, pool_words=32768)
     assert main(["stream", str(config), "--out", str(tmp_path / "o"), "--build", str(report)]) == 2
     assert "the farm has 4 windmills but the build has 2 channels" in capsys.readouterr().err
 
@@ -98,8 +98,9 @@ def test_bad_build_reports_are_refused(tmp_path, capsys, content, message):
 
 
 def test_contract_description_round_trips():
-    c = ReplayContract(channels=3, stream_depth=64, max_delay=10, max_increment=4,
+    c = ReplayContract(channels=3, pool_words=64, max_delay=10, max_increment=4,
                        interpolation="linear", cmult_form="3mult", sample_rate_hz=12_345_678)
     d = c.to_dict()
     assert ReplayContract.from_dict(json.loads(json.dumps(d))) == c
-    assert d["latency_samples"] == 3 * 3 + 3 + 4 and d["max_phase_increment"] == 2**32 - 1
+    # linear: at most one word per N = 3 samples (what the fetch scan supplies)
+    assert d["latency_samples"] == 3 * 3 + 3 + 4 and d["max_phase_increment"] == (2**32 - 1) // 3

@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
-import os
-import subprocess
 from pathlib import Path
 
-from rast.gateware.verilog import setup_verilator, verilator_warning_args
+from rast.gateware.verilog import build_verilated, setup_verilator
 from rast.sim import runner
 
 __all__ = ["build_harness"]
@@ -39,14 +37,7 @@ def build_harness(sources: dict[str, str], toplevel: str = "rast_bulk", jobs: in
         for k, v in sources.items():
             (bdir / k).write_text(v)
             paths.append(str(bdir / k))
-        cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs), *verilator_warning_args(),
-               "-DRAST_EXTERNAL_CLOCK", "--top-module", toplevel, "-o", "harness",
-               # the wheel's verilated.mk leaves the PCH include flag empty
-               "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
-               str(HERE / "main.cpp"), *paths]
-        log = bdir / "build.log"
-        with open(log, "w") as f:
-            r = subprocess.run(cmd, cwd=bdir, stdout=f, stderr=subprocess.STDOUT, env=os.environ)
-        if r.returncode != 0:
-            raise RuntimeError(f"harness build failed ({log}):\n{log.read_text()[-3000:]}")
+        build_verilated(["--cc", "--exe", "--build", "-j", str(jobs), "-DRAST_EXTERNAL_CLOCK",
+                         "--top-module", toplevel, "-o", "harness", str(HERE / "main.cpp"), *paths],
+                        bdir, "the bare harness")
     return exe

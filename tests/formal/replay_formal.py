@@ -1,10 +1,12 @@
 """Formal harnesses for the replay block (run by tests/test_hdl_formal.py, or
 ``python tests/formal/replay_formal.py OUTDIR`` to leave the .sby/.il files).
 
-* ``StreamAddressCheck``: k-induction proof that the stream RAM read index
-  never leaves the programmed length (``index < active_length <= depth``),
-  under arbitrary enables, register values, bank-switch requests and RAM
-  writes.
+* ``StreamAddressCheck``: k-induction proof that the stream's read index
+  never leaves the programmed length (``index < active_length <= pool``) and
+  that every fetch from the pool asks for a word of the channel's own stream
+  (``fetch_addr - active_base < active_length``, modulo the address width),
+  under arbitrary enables, register values, switch requests, fetch grants and
+  pool answers.
 * ``DelayExactCheck``: the delay line's output is exactly the input of
   ``3 + d`` enabled samples earlier (``d`` arbitrary per sample, read 3 samples
   before), against a shift-register reference, from the first sample on;
@@ -28,26 +30,33 @@ from rast.hdl.stream_replay import StreamReplay    # noqa: E402
 
 
 class StreamAddressCheck(Elaboratable):
-    def __init__(self, depth=8, interpolation="hold"):
+    def __init__(self, depth=16, interpolation="hold"):
         self.depth = depth
         self.interpolation = interpolation
 
     def elaborate(self, platform):
         m = Module()
         D = self.depth
-        m.submodules.dut = dut = StreamReplay(D, interpolation=self.interpolation, init=[1, 2, 3],
-                                              init_length=3, init_increment=1 << 31)
+        m.submodules.dut = dut = StreamReplay(D, interpolation=self.interpolation, init_base=5,
+                                              init_length=9, init_increment=1 << 22)
         length = AnySeq(range(D + 1))
         m.d.comb += [Assume(length >= 1), Assume(length <= D), Assume(~ResetSignal())]
-        m.d.comb += [dut.en.eq(AnySeq(1)), dut.length.eq(length),
+        m.d.comb += [dut.en.eq(AnySeq(1)), dut.length.eq(length), dut.base.eq(AnySeq(dut.base.shape())),
                      dut.increment.eq(AnySeq(32)), dut.swap_req.eq(AnySeq(1)),
-                     dut.swap_force.eq(AnySeq(1)), dut.wr_en.eq(AnySeq(1)),
-                     dut.wr_bank.eq(AnySeq(1)), dut.wr_addr.eq(AnySeq(dut.wr_addr.shape())),
-                     dut.wr_data.eq(AnySeq(32))]
+                     dut.swap_force.eq(AnySeq(1)), dut.fetch_grant.eq(AnySeq(1)),
+                     dut.fill_en.eq(AnySeq(1)), dut.fill_tag.eq(AnySeq(dut.fill_tag.shape())),
+                     dut.fill_data.eq(AnySeq(32))]
+        aw = len(dut.fetch_addr)
+        offset = Signal(aw)
+        m.d.comb += offset.eq(dut.fetch_addr - dut.active_base)
         m.d.comb += [Assert(dut.active_length >= 1), Assert(dut.active_length <= D),
                      Assert(dut.index < dut.active_length),
                      # the registered wrap flag agrees with the compare it stands for
                      Assert(dut.at_last == (dut.index == dut.active_length - 1))]
+        with m.If(~dut.restarting):
+            m.d.comb += [Assert(dut.fetch_index < dut.active_length), Assert(offset == dut.fetch_index)]
+        with m.Else():
+            m.d.comb += Assert(~dut.fetch_want)
         return m
 
 
@@ -81,6 +90,7 @@ class DelayExactCheck(Elaboratable):
 CHECKS = {
     "stream_address": (lambda: StreamAddressCheck(), "prove", 12),
     "stream_address_interp": (lambda: StreamAddressCheck(interpolation="linear"), "prove", 12),
+    "stream_address_fir": (lambda: StreamAddressCheck(interpolation="fir"), "prove", 12),
     # depth-4 RAM, 24 steps: six wraps of the write pointer (4 s)
     "delay_exact": (lambda: DelayExactCheck(max_delay=2, width=2), "bmc", 24),
     # depth-8 RAM, 30 steps (about 5 minutes)

@@ -1,0 +1,230 @@
+"""The host side of loading: from a `rast stream` manifest to the register
+writes that load it (``rast load``, the cosimulations) or the power-up state
+that bakes it in (``rast verilog --manifest``), with the checks that refuse a
+manifest made for another build."""
+
+from pathlib import Path
+
+from .fixedpoint import (ReplayContract, GAIN_WIDTH, BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY,
+                         TARGETS, path_latency)
+from .powerup import ChannelInit
+from .regmap import register_map, CTRL_ENABLE, CTRL_SWAP
+
+__all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "free_region",
+           "manifest_to_register_writes", "manifest_channel_inits"]
+
+
+def read_hex_words(path) -> list:
+    return [int(line, 16) for line in Path(path).read_text().split()]
+
+
+def _check_build(manifest, contract):
+    """A manifest states the sample rate and interpolation its streams were
+    made for: refuse it for a block built otherwise (naming both numbers)."""
+    rate = manifest.get("sample_rate_hz")
+    if rate is not None and contract.sample_rate_hz and round(float(rate)) != contract.sample_rate_hz:
+        ratio = contract.sample_rate_hz / float(rate)
+        raise ValueError(f"Manifest was made for a sample rate of {float(rate) / 1e6:g} MHz "
+                         f"(sample_rate_hz {round(float(rate))}) but the replay block runs at "
+                         f"{contract.sample_rate_hz / 1e6:g} MHz ({contract.sample_rate_hz}): every "
+                         f"Doppler would play {ratio:.3g}x too high and every range {ratio:.3g}x too "
+                         f"short; make the streams for this build (rast stream --build report.json)")
+    interp = manifest.get("interpolation")
+    if interp is not None and interp != contract.interpolation:
+        raise ValueError(f"Manifest's streams were made for {interp} interpolation but the replay block "
+                         f"interpolates with {contract.interpolation}")
+
+
+#: The manifest's ``calibration`` keys of the converters (RTS samples; absent: 0).
+CALIBRATION_KEYS = {"adc_latency_samples": "ADC", "dac_latency_samples": "DAC"}
+
+
+def _calibration(manifest) -> dict:
+    """The converters' latencies from a manifest's ``calibration`` (0 when a
+    manifest has none: one written before the keys existed)."""
+    cal = manifest.get("calibration")
+    if cal is None:
+        return {k: 0 for k in CALIBRATION_KEYS}
+    if not isinstance(cal, dict):
+        raise ValueError(f"Manifest's 'calibration' must be an object, not {cal!r}")
+    out = {}
+    for key in CALIBRATION_KEYS:
+        v = cal.get(key, 0)
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ValueError(f"Manifest's calibration {key!r} must be a non-negative integer "
+                             f"(RTS samples), not {v!r}")
+        out[key] = v
+    return out
+
+
+def _fixed_latency(manifest, contract, target):
+    """``(total, text)``: the samples the path into which the manifest is
+    loaded adds at zero programmed delay, and their parts in words."""
+    if target not in TARGETS:
+        raise ValueError(f"Target must be one of {', '.join(TARGETS)}, not {target!r}")
+    L = contract.latency
+    cal = _calibration(manifest)
+    if target == "block":
+        return L, f"the replay block's fixed latency of {L} samples"
+    adc, dac = cal["adc_latency_samples"], cal["dac_latency_samples"]
+    total = path_latency(L, "board", adc, dac)
+    return total, (f"the board's fixed latency of {total} samples (replay block L {L} + board input "
+                   f"stage {BOARD_INPUT_LATENCY} + board output stage {BOARD_OUTPUT_LATENCY} + ADC "
+                   f"{adc} (adc_latency) + DAC {dac} (dac_latency))")
+
+
+def _channel_values(manifest, contract, target="block"):
+    _check_build(manifest, contract)
+    chans = manifest["registers"]["channels"]
+    if len(chans) > contract.channels:
+        raise ValueError(f"Manifest has {len(chans)} windmills but the replay block has "
+                         f"{contract.channels} channels")
+    fixed, parts = _fixed_latency(manifest, contract, target)
+    out = []
+    for i, ch in enumerate(chans):
+        delay = int(ch["delay_increment"])
+        if i == 0:
+            if delay < fixed:
+                raise ValueError(f"Common delay of {delay} samples (windmill {ch['windmill']!r}) is "
+                                 f"shorter than {parts}")
+            delay -= fixed
+        maxd = contract.max_segment_delay(i)
+        if not 0 <= delay <= maxd:
+            what = "Common delay" if i == 0 else "Delay increment"
+            raise ValueError(f"{what} of channel {i} ({ch['windmill']!r}) must be in [0, {maxd}] "
+                             f"samples after subtracting the latency, not {delay}")
+        length = int(ch["length"])
+        if not contract.min_stream_length <= length <= contract.pool_words:
+            raise ValueError(f"Stream length of channel {i} ({ch['windmill']!r}) must be in "
+                             f"[{contract.min_stream_length}, {contract.pool_words}] words, not {length}")
+        inc = int(ch["phase_increment"])
+        if not 0 <= inc <= contract.max_phase_increment:
+            raise ValueError(f"Phase increment of channel {i} ({ch['windmill']!r}) must be in "
+                             f"[0, {contract.max_phase_increment}] ({contract.interpolation} "
+                             f"interpolation), not {inc}")
+        gain = int(ch["gain"])
+        if not 0 <= gain < (1 << GAIN_WIDTH):
+            raise ValueError(f"Gain word of channel {i} ({ch['windmill']!r}) must be in "
+                             f"[0, {(1 << GAIN_WIDTH) - 1}], not {gain}")
+        out.append(dict(name=ch["windmill"], enable=int(ch.get("enable", 1)), length=length,
+                        inc=inc, gain=gain, delay=delay))
+    return out
+
+
+def _load_streams(manifest, stream_dir, streams, values):
+    if streams is not None:
+        return [list(map(int, s)) for s in streams]
+    if stream_dir is None:
+        return None
+    by_name = {w["name"]: w for w in manifest["windmills"]}
+    words = []
+    for v in values:
+        w = read_hex_words(Path(stream_dir) / by_name[v["name"]]["hex_file"])
+        if len(w) != v["length"]:
+            raise ValueError(f"{by_name[v['name']]['hex_file']} has {len(w)} words, the manifest says "
+                             f"{v['length']}")
+        words.append(w)
+    return words
+
+
+def pool_layout(lengths, pool_words: int) -> list:
+    """Pool addresses of streams of ``lengths`` words placed one after the
+    other from address 0 (a full load); refuses streams that do not fit."""
+    bases, at = [], 0
+    for n in lengths:
+        bases.append(at)
+        at += int(n)
+    if at > pool_words:
+        raise ValueError(f"Streams need {at} words together but the stream pool holds {pool_words}")
+    return bases
+
+
+def free_region(in_use, length: int, pool_words: int) -> int:
+    """First pool address with ``length`` free words, given the regions
+    ``in_use`` (``(base, length)`` pairs, e.g. every channel's active stream
+    and any pending one); for a reload while running."""
+    at = 0
+    for base, n in sorted((int(b), int(n)) for b, n in in_use):
+        if base - at >= length:
+            return at
+        at = max(at, base + n)
+    if pool_words - at >= length:
+        return at
+    raise ValueError(f"No {length} free words in the stream pool of {pool_words} words "
+                     f"(in use: {sorted(in_use)})")
+
+
+def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None = None, *,
+                                stream_dir=None, streams=None, target: str = "block") -> list:
+    """Register writes ``[(addr, value), ...]`` that load a manifest into a running block.
+
+    The windmill of list position ``l`` goes to channel ``l``; the rest are
+    disabled. Channel 0's DELAY is the manifest's common delay minus the fixed
+    latency of the path the block sits in, so that the echo lands at
+    ``delay_samples``; channels 1.. get their increments. ``target`` says
+    which path:
+
+    * ``"board"``: the board top (``rast.gateware.top.BoardTop``), loaded by
+      ``rast load`` or baked in for power-up. ``DELAY[0] = delay_samples - L
+      - BOARD_INPUT_LATENCY - BOARD_OUTPUT_LATENCY - adc - dac``, with the
+      converters' latencies from the manifest's ``calibration``
+      (``adc_latency_samples``, ``dac_latency_samples``; 0 when a manifest has
+      none): the echo leaves the DAC ``delay_samples`` after the pulse reached
+      the ADC.
+    * ``"block"`` (the default): the bare replay block, as the cosimulations
+      drive it (``rast.sim.e2e``, ``rast.sim.scenario``): ``DELAY[0] =
+      delay_samples - L``, the echo at ``delay_samples`` counted at the
+      block's own ports; the board's stages and the converters are not in
+      that path and are not subtracted.
+
+    A windmill closer than the fixed latency is refused, naming its parts.
+    With ``stream_dir`` (the manifest's folder, to read the ``.hex`` files) or
+    ``streams`` (word lists) the streams are written too, one after the other
+    from pool address 0 (:func:`pool_layout`): every channel is disabled
+    first (a full load replaces every stream), the words written, then each
+    channel's BASE/LENGTH/PHASE_INC set, switched (at once: disabled) and
+    re-enabled. Without streams only gains and delays are written
+    (BASE/LENGTH/PHASE_INC are not touched).
+    """
+    contract = contract or ReplayContract(channels=len(manifest["registers"]["channels"]))
+    rmap = register_map(contract)
+    values = _channel_values(manifest, contract, target)
+    words = _load_streams(manifest, stream_dir, streams, values)
+    w = []
+    a = rmap.addr
+    if words is not None:
+        bases = pool_layout([len(x) for x in words], contract.pool_words)
+        w += [(a("CTRL", ch), 0) for ch in range(contract.channels)]
+        w.append((a("STREAM_ADDR"), 0))
+        w += [(a("STREAM_DATA"), int(x) & 0xFFFFFFFF) for ws in words for x in ws]
+    for ch, v in enumerate(values):
+        if words is not None:
+            w.append((a("BASE", ch), bases[ch]))
+            w.append((a("LENGTH", ch), v["length"]))
+            w.append((a("PHASE_INC", ch), v["inc"]))
+        w.append((a("GAIN", ch), v["gain"]))
+        w.append((a("DELAY", ch), v["delay"]))
+        if words is not None:
+            w.append((a("CTRL", ch), CTRL_SWAP))           # disabled: switches at once
+        w.append((a("CTRL", ch), CTRL_ENABLE if v["enable"] else 0))
+    for ch in range(len(values), contract.channels):
+        w.append((a("CTRL", ch), 0))
+        w.append((a("GAIN", ch), 0))
+        w.append((a("DELAY", ch), 0))
+    w.append((a("APPLY"), 1))
+    return w
+
+
+def manifest_channel_inits(manifest: dict, contract: ReplayContract, stream_dir=None,
+                           streams=None, *, target: str = "block") -> list:
+    """Power-up contents (:class:`ChannelInit` per channel) from a manifest, for
+    a bitstream that replays it without a host; ``target`` as for
+    :func:`manifest_to_register_writes` (``"board"`` for a board top). The
+    streams sit in the pool as :func:`pool_layout` places them."""
+    values = _channel_values(manifest, contract, target)
+    words = _load_streams(manifest, stream_dir, streams, values)
+    if words is None:
+        raise ValueError("Channel initialisation needs the streams: give stream_dir or streams")
+    bases = pool_layout([len(x) for x in words], contract.pool_words)
+    return [ChannelInit(tuple(words[i]), v["inc"], v["gain"], v["delay"], bool(v["enable"]), bases[i])
+            for i, v in enumerate(values)]

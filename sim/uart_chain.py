@@ -1,0 +1,178 @@
+"""The load chain through the bitstream's top: ``rast load``'s conversation
+replayed into the board's replay system (UART bridge + replay block) in
+Verilator, every output sample checked against the bit-exact model.
+
+``rast load`` talks to a board interactively (it waits for each reply), so
+the conversation is first held with a stand-in board answering from the
+bit-exact model (:class:`ModelBoard`): what the host sends is then known byte
+for byte, and what the gateware must answer too. ``rast_uart_chain.v`` sends
+those bytes into the simulated bridge (with the idle time the host would
+spend waiting for each reply), feeds input samples every clock, and records
+the bridge's bytes, every bus write with the sample from which it takes
+effect, and the output samples; :func:`run_chain` compares them all.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import struct
+import subprocess
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from rast.model.datapath import ReplayModel
+from rast.model.fixedpoint import unpack_iq
+from rast.model.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
+
+__all__ = ["ModelBoard", "ChainResult", "run_chain", "host_clocks", "weighted_sums"]
+
+#: Idle bit times the host leaves after a read or version frame (the 4 reply
+#: bytes, 40 bit times, come back before it sends on, as rast load waits).
+REPLY_WAIT_BITS = 60
+
+
+class ModelBoard:
+    """A transport for :class:`~rast.model.hostproto.HostBridge` that answers
+    from a :class:`ReplayModel` and records the conversation."""
+
+    def __init__(self, model: ReplayModel):
+        self.model = model
+        self.sent = []          # (byte, idle bit times before it)
+        self.applied = []       # register writes, (addr, value), in order
+        self.replies = bytearray()
+        self._pending = bytearray()
+        self._buf = bytearray()
+        self._gap = 0
+
+    def write(self, data):
+        for b in bytes(data):
+            self.sent.append((b, self._gap))
+            self._gap = 0
+            self._buf.append(b)
+            self._parse()
+
+    def _parse(self):
+        buf = self._buf
+        while buf:
+            cmd = buf[0]
+            if cmd == CMD_VERSION:
+                del buf[:1]
+                self._reply(struct.pack("<I", BRIDGE_ID), wait=True)
+            elif cmd == CMD_READ:
+                if len(buf) < 3:
+                    return
+                addr = struct.unpack_from("<H", buf, 1)[0]
+                del buf[:3]
+                self._reply(struct.pack("<I", self.model.read(addr)), wait=True)
+            elif cmd == CMD_WRITE:
+                if len(buf) < 7:
+                    return
+                addr, value = struct.unpack_from("<HI", buf, 1)
+                del buf[:7]
+                self._apply(addr, value)
+                self._reply(bytes([ACK]))
+            elif cmd == CMD_BURST:
+                if len(buf) < 5:
+                    return
+                addr, n = struct.unpack_from("<HH", buf, 1)
+                if len(buf) < 5 + 4 * n:
+                    return
+                for k in range(n):
+                    self._apply(addr, struct.unpack_from("<I", buf, 5 + 4 * k)[0])
+                del buf[:5 + 4 * n]
+                self._reply(bytes([ACK]))
+            else:
+                raise AssertionError(f"rast load sent a byte that is no command: {cmd:#04x}")
+
+    def _apply(self, addr, value):
+        self.model.write(addr, value)
+        self.applied.append((addr, value))
+
+    def _reply(self, data, wait=False):
+        self._pending += data
+        self.replies += data
+        if wait:
+            self._gap = REPLY_WAIT_BITS
+
+    def read(self, n):
+        out = bytes(self._pending[:n])
+        del self._pending[:n]
+        return out
+
+
+def host_clocks(sent, divisor) -> int:
+    """Clocks ``rast_uart_chain.v`` takes to send ``sent``: per byte its idle
+    bit times, 10 bits and 2 idle clocks."""
+    return sum((gap + 10) * divisor + 2 for _, gap in sent)
+
+
+@dataclass
+class ChainResult:
+    steps: int                 # input samples simulated
+    writes: list               # (step, addr, data): every bus write and its step
+    tx: bytes                  # what the bridge sent
+    sums: dict                 # position-weighted sums of every output, from the RTL
+    tail: np.ndarray           # (n, 2) the last output samples, from the RTL
+    tail_from: int
+
+
+def _build(sources: dict, work: Path, jobs: int = 2) -> Path:
+    from rast.gateware.verilog import build_verilated
+    h = hashlib.sha256()
+    for name in sorted(sources):
+        h.update(name.encode() + sources[name].encode())
+    bdir = work / f"uart_chain-{h.hexdigest()[:16]}"
+    exe = bdir / "obj_dir" / "Vrast_uart_chain"
+    if exe.exists():
+        return exe
+    shutil.rmtree(bdir, ignore_errors=True)
+    bdir.mkdir(parents=True)
+    for name, text in sources.items():
+        (bdir / name).write_text(text)
+    build_verilated(["--binary", "--timing", "-CFLAGS", "-fcoroutines", "--timescale", "1ns/1ps",
+                     "-O3", "-j", str(jobs), "--top-module", "rast_uart_chain", *sorted(sources)],
+                    bdir, "the load chain")
+    return exe
+
+
+def run_chain(system, sent, src_words, n_steps, work, *, tail=100_000) -> ChainResult:
+    """Simulate ``system`` (a :class:`rast.gateware.top.ReplaySystem`) receiving
+    the host bytes ``sent`` (``(byte, idle bit times before)``) while input
+    words ``src_words`` (repeated) stream in, for ``n_steps`` samples."""
+    from amaranth.back import verilog
+    work = Path(work)
+    sources = {"rast_system.v": verilog.convert(system, name="rast_system", emit_src=False),
+               "rast_uart_chain.v": resources.files("rast.sim").joinpath("rast_uart_chain.v").read_text()}
+    exe = _build(sources, work)
+    run = work / "uart_chain-run"
+    shutil.rmtree(run, ignore_errors=True)
+    run.mkdir(parents=True)
+    capture_from = max(0, n_steps - tail)
+    (run / "cfg.hex").write_text("".join(f"{v:016x}\n" for v in (len(sent), len(src_words), system.divisor,
+                                                                 n_steps, capture_from)))
+    (run / "rx.hex").write_text("".join(f"{(gap << 8) | b:08x}\n" for b, gap in sent))
+    (run / "src.hex").write_text("".join(f"{int(w):08x}\n" for w in src_words))
+    r = subprocess.run([str(exe)], cwd=run, capture_output=True, text=True)
+    if r.returncode != 0 or not (run / "summary.txt").exists():
+        raise RuntimeError(f"chain simulation failed:\n{r.stdout[-2000:]}{r.stderr[-2000:]}")
+    sums = {}
+    for line in (run / "summary.txt").read_text().split("\n"):
+        if line:
+            key, value = line.split()
+            sums[key] = int(value, 16) if key[:3] in ("s1_", "s2_") else int(value)
+    writes = [tuple(int(v, 16) for v in line.split()) for line in (run / "writes.txt").read_text().split("\n") if line]
+    tx = bytes(int(v, 16) for v in (run / "tx.txt").read_text().split())
+    out = np.array([int(v, 16) for v in (run / "out.txt").read_text().split()], dtype=np.int64)
+    oi, oq = unpack_iq(out)
+    return ChainResult(sums["steps"], writes, tx, sums, np.stack([oi, oq], axis=1), capture_from)
+
+
+def weighted_sums(y):
+    """The RTL's position-weighted sums of ``y`` (signed ints), modulo 2**64."""
+    v = np.asarray(y, dtype=np.int64).view(np.uint64)
+    s1 = np.cumsum(v, dtype=np.uint64)
+    return int(s1[-1]) if len(s1) else 0, int(np.sum(s1, dtype=np.uint64)) if len(s1) else 0

@@ -1,0 +1,108 @@
+"""The README's chain with its defaults: `make run`'s streams load into what
+`make bitstream` builds (the build described without running the tools)."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rast.cli import main
+from rast.gateware.build import BuildConfig, build
+from rast.load import plan_writes, read_manifest_dir
+from rast.model.datapath import ReplayModel
+from rast.model.fixedpoint import ReplayContract, pack_iq
+from rast.model.loadplan import free_region
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _make_default(name):
+    m = re.search(rf"^{name} \?= (\S+)$", (ROOT / "Makefile").read_text(), re.M)
+    assert m, f"Makefile has no default for {name}"
+    return m.group(1)
+
+
+def test_default_example_loads_into_the_default_bitstream(tmp_path):
+    example = ROOT / _make_default("EXAMPLE")
+    out = tmp_path / "out"
+    assert main(["stream", str(example), "--out", str(out)]) == 0            # make run
+    report = build(BuildConfig(), tmp_path / "bit", quiet=True, run_tools=False)   # make bitstream
+    contract = ReplayContract.from_dict(report["build"])
+    manifest, words = read_manifest_dir(out)
+    writes = plan_writes(manifest, contract, words)                          # rast load's plan
+    lengths = [len(w) for w in words]
+    assert sum(lengths) > 2 * 16384           # longer than any one channel's RAM could have been
+
+    # Every word lands in the pool and each channel plays its own stream.
+    m = ReplayModel(contract)
+    for addr, value in writes:
+        m.write(addr, value)
+    for ch, w in enumerate(words):
+        assert m.stream_of(ch).tolist() == [int(x) for x in w]
+    # ... and one more copy of the longest fits beside them: a reload while both play.
+    regions = [(m.base_act[ch], n) for ch, n in enumerate(lengths)]
+    free_region(regions, max(lengths), contract.pool_words)
+
+    # The streams play: after the refill, every channel's echo of a constant input is nonzero.
+    n = contract.refill_samples + contract.latency + 4096
+    yi, yq = m.run(np.full(n, 8000), np.zeros(n, dtype=np.int64))
+    assert np.count_nonzero(yi[-4096:]) > 4000
+
+
+@pytest.mark.slow
+def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
+    """`make run`, then `make bitstream`'s top, then `rast load` of the run's
+    output through that top's UART bridge (Verilator), samples streaming all
+    the while: the bridge answers what the protocol and the model say, and
+    every output sample equals the bit-exact model given the same register
+    writes at the same samples."""
+    from rast.gateware.top import ReplaySystem
+    from rast.load import load_manifest
+    from rast.model.hostproto import HostBridge
+    from rast.sim.uart_chain import ModelBoard, host_clocks, run_chain, weighted_sums
+
+    out = tmp_path / "out"
+    assert main(["stream", str(ROOT / _make_default("EXAMPLE")), "--out", str(out)]) == 0
+    cfg = BuildConfig()
+    report = build(cfg, tmp_path / "bit", quiet=True, run_tools=False)
+    contract = ReplayContract.from_dict(report["build"])
+    # The bitstream's replay system, its UART at the bridge's fastest divisor (4 clocks per bit).
+    system = ReplaySystem(cfg.clock_mhz * 1e6, divisor=4, timeout=400, **cfg.replay_kwargs(),
+                          sample_rate_hz=contract.sample_rate_hz)
+    assert system.replay.contract == contract
+
+    board = ModelBoard(ReplayModel(contract))
+    result = load_manifest(HostBridge(board), out)                 # rast load's own code
+    assert result["stream_words"] == sum(len(w) for w in read_manifest_dir(out)[1])
+
+    # A pulse train as the input: a 10 us chirp-free tone burst every 50 us.
+    pri, burst = 1000, 200
+    t = np.arange(pri)
+    xi = np.where(t < burst, np.round(12000 * np.cos(0.3 * t)), 0).astype(np.int64)
+    xq = np.where(t < burst, np.round(12000 * np.sin(0.3 * t)), 0).astype(np.int64)
+    n_steps = host_clocks(board.sent, system.divisor) + contract.refill_samples + 60_000
+    rtl = run_chain(system, board.sent, pack_iq(xi, xq), n_steps, tmp_path / "sim")
+
+    assert rtl.tx == bytes(board.replies), "the bridge's answers differ from the protocol's"
+    # The model: the same writes at the same samples.
+    model = ReplayModel(contract)
+    n_out = rtl.sums["outs"]
+    x_i, x_q = np.resize(xi, n_out), np.resize(xq, n_out)
+    ys, done = [], 0
+    for step, addr, data in rtl.writes:
+        if step > done:
+            ys.append(np.stack(model.run(x_i[done:step], x_q[done:step])))
+            done = step
+        model.write(addr, data)
+    ys.append(np.stack(model.run(x_i[done:], x_q[done:])))
+    y = np.concatenate(ys, axis=1)
+    assert [(a, d) for _, a, d in rtl.writes] == board.applied, "the bus saw other writes than rast load sent"
+    for lane, k in (("i", 0), ("q", 1)):
+        assert (rtl.sums[f"s1_{lane}"], rtl.sums[f"s2_{lane}"]) == weighted_sums(y[k]), \
+            f"output {lane.upper()} differs from the model somewhere in {n_out} samples"
+    tail = y[:, rtl.tail_from:].T
+    bad = np.nonzero((rtl.tail != tail).any(axis=1))[0]
+    assert not bad.size, f"first differing output {rtl.tail_from + bad[0]}: {rtl.tail[bad[0]]} vs {tail[bad[0]]}"
+    # the loaded streams play: both windmills' echoes of every burst (a fifth of the time)
+    assert np.count_nonzero(rtl.tail.any(axis=1)) > 0.15 * len(rtl.tail)
