@@ -116,10 +116,11 @@ class RegisteredRAM(wiring.Component):
         a word read from memory (so ``r_data`` may load)."""
         ra = self.r_addr
         fill = Signal(range(self.latency))           # enabled cycles seen, saturating
-        primed = Signal()
-        m.d.comb += primed.eq(fill == self.latency - 1)
-        with m.If(self.r_en & ~primed):
+        primed = Signal()                            # == (fill == latency - 1), as a flip-flop:
+        with m.If(self.r_en & ~primed):              # it fans out to every slice's OCE
             m.d.sync += fill.eq(fill + 1)
+            with m.If(fill == self.latency - 2):
+                m.d.sync += primed.eq(1)
         if self._addr_reg:
             ra = Signal.like(self.r_addr, name="r_addr_q")
             with m.If(self.r_en):

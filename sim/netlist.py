@@ -181,16 +181,21 @@ def replay_netlist_sources(channels: int, *, pool_words: int, max_delay: int, ma
             "rast_bulk.v": bulk_verilog(port_map(aw), src_aw=src_aw)}, "rast_bulk"
 
 
-def edit_cell(netlist: str, cell: str, key: str, old: str, new: str, occurrence: int = 0) -> str:
+def edit_cell(netlist: str, cell: str, key: str, old: str, new: str, occurrence: int | str = 0) -> str:
     """``netlist`` with ``.key(old)`` set to ``.key(new)`` in the ``occurrence``-th ``cell``
-    instance that has it: a parameter (``REGMODE_B``, ``'"OUTREG"'`` -> ``'"NOREG"'``) or a
-    pin (``SIGNEDA``, ``"1'h1"`` -> ``"1'h0"``). For the tests that show a wrong primitive
-    setting makes the netlist cosimulation fail."""
+    instance that has it (or, for a string, the instance of that name): a parameter
+    (``REGMODE_B``, ``'"OUTREG"'`` -> ``'"NOREG"'``) or a pin (``SIGNEDA``, ``"1'h1"`` ->
+    ``"1'h0"``). For the tests that show a wrong primitive setting makes the netlist
+    cosimulation fail."""
     needle = f".{key}({old})"
     seen = 0
     for m in re.finditer(rf"^  {cell} #\(.*?^  \);", netlist, re.M | re.S):
         body = m.group(0)
         if needle not in body:
+            continue
+        if isinstance(occurrence, str):
+            if re.search(rf"^  \)\s+\\?{re.escape(occurrence)}\s+\(", body, re.M):
+                return netlist[:m.start()] + body.replace(needle, f".{key}({new})", 1) + netlist[m.end():]
             continue
         if seen == occurrence:
             return netlist[:m.start()] + body.replace(needle, f".{key}({new})", 1) + netlist[m.end():]

@@ -23,7 +23,7 @@ DEFAULT_CONTRACT = dict(pool_words=_D.pool_words, max_delay=_D.max_delay, max_in
 def _run(kind, seed, *, channels=1, netlist_edit=None, name=""):
     sources, top = replay_netlist_sources(channels, interpolation=_D.interpolation, cmult_form=_D.cmult_form,
                                           netlist_edit=netlist_edit, **DEFAULT_CONTRACT)
-    cocotb_run(sources, top, MODULE, "replay_bulk", simulator="verilator", public_all=False,
+    cocotb_run(sources, top, MODULE, "replay_bulk", simulator="verilator", bulk=True,
                label=f"netlist{channels}", name=f"netlist-{kind}-{channels}ch-s{seed}{name}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=48, stall_thresh=48,
                               contract=DEFAULT_CONTRACT))
@@ -40,12 +40,14 @@ def test_netlist_top(kind, seed):
 
 
 #: One register mode and one sign setting, each flipped in one primitive of a netlist copy
-#: (cell, key, right, wrong, which instance having it): the first DP16KD's output register (a
-#: width slice of the delay line), and the sign of operand A of the real-part gain multiplier
-#: (the complex product, both signs). Flipping a sign of the first complex-product multiplier
-#: was tried first and was not seen: in this short farm its operands stay of one sign.
+#: (cell, key, right, wrong, which instance having it): the output register of the stream
+#: pool's DP16KD holding bit 13 of the I half of the first bank's words (the pool is sliced one
+#: bit per DP16KD), and the sign of operand A of the real-part gain multiplier (the complex
+#: product, both signs). Flipping a sign of the first complex-product multiplier was tried first
+#: and was not seen: in this short farm its operands stay of one sign; nor was the output register
+#: of bit 0, whose word-to-word change the product's rounding removes.
 WRONG_SETTINGS = {
-    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', 0),
+    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "pool.bank0.bram13"),
     "mult_signeda": ("MULT18X18D", "SIGNEDA", "1'h1", "1'h0", 5),
 }
 

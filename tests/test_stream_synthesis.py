@@ -107,7 +107,10 @@ def test_a_sharp_flash_table_falls_back_to_direct_evaluation():
     assert synthesis.check_error_dbc is not None and synthesis.check_error_dbc > CHECK_LIMIT_DBC
     assert "band assumption fails" in synthesis.reason
     n = np.arange(0, length, 997)
-    np.testing.assert_array_equal(period[n], modulation(w, n * (w.period_s / length), farm.radar.wavelength_m))
+    # the same float64 sums, evaluated in other chunks (their length follows the core count):
+    # equal to the last bits of float64, not bit for bit
+    reference = modulation(w, n * (w.period_s / length), farm.radar.wavelength_m)
+    np.testing.assert_allclose(period[n], reference, rtol=0, atol=1e-12 * np.abs(reference).max())
     assert error_dbc(period, w, length, farm.radar.wavelength_m, samples=20000) <= LIMIT_DBC
 
 
