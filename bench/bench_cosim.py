@@ -53,7 +53,7 @@ def main(argv=None) -> int:
           f"{e.farm.sample_rate_mhz:g} MHz", flush=True)
 
     t = time.monotonic()
-    b = runner.build(sources, top, simulator="verilator", waves=False, label=f"bench{c.channels}", public_all=False)
+    b = runner.build(sources, top, simulator="verilator", waves=False, label=f"bench{c.channels}", bulk=True)
     cocotb_build = time.monotonic() - t
     t = time.monotonic()
     params = dict(config=config, seconds=args.seconds, channels=args.channels)

@@ -33,7 +33,7 @@ def _measure(label, make_sources, channels, contract, pulses, seed):
     t0 = time.monotonic()
     sources, top = make_sources(channels, interpolation="fir", **contract)
     prep = time.monotonic() - t0
-    b = runner.build(sources, top, simulator="verilator", public_all=False, label=f"bench-{label}")
+    b = runner.build(sources, top, simulator="verilator", bulk=True, label=f"bench-{label}")
     params = dict(kind="random", channels=channels, seed=seed, gap_thresh=48, stall_thresh=48,
                   pulses=pulses, contract=contract)
     d = runner.run(b, "rast.sim.tb_top", name=f"bench-{label}", testcase="replay_bulk", quiet=True,

@@ -140,7 +140,7 @@ def run(args) -> int:
                                 interpolation=c.interpolation,
                                 max_increment=c.max_increment)
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
-                     label=f"cosim{c.channels}{'-netlist' if args.netlist else ''}", public_all=False)
+                     label=f"cosim{c.channels}{'-netlist' if args.netlist else ''}", bulk=True)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
     params = dict(config=config, seconds=args.seconds, channels=args.channels, overlap=args.overlap,

@@ -33,9 +33,11 @@ samples per pulse still proves that all outputs equal the model's.
 The wrapper waits for ``start`` (driven by the cocotb testbench after it has
 written the files, or tied high by the bare C++ harness) and raises ``done``
 when ``n_out`` outputs were seen (or ``timeout`` cycles passed without one).
-The clock is generated inside (``always #5``, needs ``--timing`` in
-Verilator), so no Python runs between ``start`` and ``done``; define
-``RAST_EXTERNAL_CLOCK`` to make ``clk`` a port for the bare harness.
+No Python runs between ``start`` and ``done``. With ``RAST_EXTERNAL_CLOCK``
+defined, ``clk`` is a port: the bare C++ harness toggles it, and under
+cocotb + Verilator cocotb's GPI clock (C++) does (``rast.sim.runner``'s bulk
+builds). Without it the wrapper makes its own clock (``always #5``), which is
+how Icarus runs it.
 """
 
 from __future__ import annotations
@@ -49,12 +51,15 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["PortMap", "bulk_verilog", "TEMPLATE", "CFG_FIELDS", "BulkJob", "write_job", "read_outputs",
-           "read_summary", "checksums", "MAX_CAP", "CLOCK_PERIOD_NS"]
+           "read_summary", "checksums", "MAX_CAP", "CLOCK_PERIOD_NS", "EXTERNAL_CLOCK_ENV"]
 
 MAX_CAP = 8
 #: Stands for an output sample with X/Z bits (as rast.sim.testbench.X_VALUE).
 X_VALUE = -(1 << 62)
 CLOCK_PERIOD_NS = 10
+#: Set (by ``rast.sim.runner.run``) when the wrapper was built with
+#: ``RAST_EXTERNAL_CLOCK``: the testbench then drives ``clk`` itself.
+EXTERNAL_CLOCK_ENV = "RAST_EXTERNAL_CLOCK"
 
 #: Lines of cfg.hex, in order.
 CFG_FIELDS = ("n_src", "active", "pri", "pulses", "flush", "n_regs", "n_out", "gap_thresh",
@@ -126,7 +131,8 @@ def bulk_verilog(p: PortMap, *, src_aw: int = 22, reg_aw: int = 18) -> str:
     n_fixed = CFG_FIELDS.index("cap_offset0")
     values = dict(
         dut_module=p.module, dut_ports=",\n        ".join(conns),
-        obs_ports="".join(f"    output wire [{w - 1}:0] obs_{n},\n" for n, w in p.observe.items()),
+        obs_ports="".join(f"    output wire [{w - 1}:0] obs_{n} /*verilator public_flat_rd*/,\n"
+                          for n, w in p.observe.items()),
         obs_summary="".join(f'                $fwrite(fd_sum, "obs_{n} %0d\\n", obs_{n});\n'
                             for n in p.observe),
         in_width=p.in_width, out_width=p.out_width, src_aw=src_aw, reg_aw=reg_aw,

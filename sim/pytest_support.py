@@ -43,11 +43,11 @@ def verilog_of(component, name: str) -> str:
 
 def cocotb_run(sources: dict, toplevel: str, module: str, testcase: str, *, simulator: str,
                name: str, tb_params: dict | None = None, extra_env: dict | None = None,
-               label: str | None = None, public_all: bool = True):
+               label: str | None = None, bulk: bool = False):
     """Build (cached) and run one cocotb test; raises with the scoreboard's report on failure.
 
-    ``public_all=False`` for the bulk wrapper: only its ports are used."""
+    ``bulk=True`` for the bulk wrapper (see ``rast.sim.runner.build``)."""
     b = runner.build(sources, toplevel, simulator=simulator, label=label or toplevel,
-                     public_all=public_all)
+                     bulk=bulk)
     env = {"RAST_TB_PARAMS": json.dumps(tb_params or {}), **(extra_env or {})}
     return runner.run(b, module, name=name, testcase=testcase, extra_env=env, quiet=True)

@@ -13,13 +13,13 @@
 /* verilator lint_off PINCONNECTEMPTY */
 module rast_bulk (
 `ifdef RAST_EXTERNAL_CLOCK
-    input wire clk,
+    input wire clk /*verilator public_flat_rw*/,
 `endif
-${obs_ports}    input wire start,
-    output reg done,
-    output reg [63:0] cycles,
-    output reg [63:0] in_idx,
-    output reg [63:0] out_idx
+${obs_ports}    input wire start /*verilator public_flat_rw*/,
+    output reg done /*verilator public_flat_rd*/,
+    output reg [63:0] cycles /*verilator public_flat_rd*/,
+    output reg [63:0] in_idx /*verilator public_flat_rd*/,
+    output reg [63:0] out_idx /*verilator public_flat_rd*/
 );
     // payload widths of the DUT's input and output (output: I low half, Q high half)
     localparam IN_W = ${in_width};

@@ -31,9 +31,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rast.gateware.verilog import PCH_MAKE_FIX, setup_verilator, verilator_warning_args
+from rast.sim.bulk import EXTERNAL_CLOCK_ENV
 
 __all__ = [
-    "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "PORTS_ONLY_PUBLIC",
+    "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "BULK_VERILATOR_ARGS",
     "available_simulators", "default_simulator", "waves_requested", "Build", "build", "run",
     "SimulationFailed", "icarus_time_zero_kick",
 ]
@@ -43,13 +44,18 @@ SIM_BUILD = Path(os.environ.get("RAST_SIM_BUILD", REPO_ROOT / "sim_build"))
 SIMULATORS = ("verilator", "icarus")
 #: Amaranth's Verilog has no ``timescale``; Icarus would default to 1 s.
 TIMESCALE = ("1ns", "1ps")
-#: Verilator build arguments for ``public_all=False``. cocotb's Verilator runner
-#: always passes ``--public-flat-rw`` (every signal visible to VPI), which stops
-#: Verilator from optimising the design; the bulk testbenches touch only the top
-#: level's ports. Verilator reads its options left to right and cocotb's command
-#: puts ``build_args`` after its own options, so ``--no-public-flat-rw`` turns
-#: that off again and ``--public-depth 1`` keeps the top level's ports public.
-PORTS_ONLY_PUBLIC = ("--no-public-flat-rw", "--public-depth", "1")
+#: Verilator build arguments of the bulk wrapper (``build(..., bulk=True)``).
+#: cocotb's Verilator runner always passes ``--public-flat-rw``: every signal
+#: writable by VPI, so Verilator must re-evaluate all logic fed by the wrapper's
+#: registers at every edge. The wrapper marks the few ports cocotb touches
+#: (``/*verilator public_flat_rw*/`` on its inputs, ``public_flat_rd`` on its
+#: outputs); Verilator reads its options left to right and cocotb's command puts
+#: ``build_args`` after its own, so ``--no-public-flat-rw`` turns the rest off.
+#: The clock is cocotb's GPI clock (C++, no Python per edge) on the wrapper's
+#: ``clk`` port, without ``--timing``: with a Verilog clock (``always #5``) every
+#: resumed delay re-runs the whole combinational logic (measured: 3 evaluations
+#: per cycle instead of 1; ``docs/cosim_speed.md``).
+BULK_VERILATOR_ARGS = ("--no-public-flat-rw", "-DRAST_EXTERNAL_CLOCK")
 
 
 def available_simulators() -> list[str]:
@@ -89,6 +95,7 @@ class Build:
     build_dir: Path
     waves: bool
     build_seconds: float = 0.0      # 0.0 when the cached build was reused
+    external_clock: bool = False    # the testbench drives ``clk`` (GPI clock)
 
 
 class SimulationFailed(AssertionError):
@@ -114,12 +121,13 @@ def icarus_time_zero_kick(text: str) -> str:
 
 def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = None,
           waves: bool | None = None, build_args: tuple[str, ...] = (),
-          label: str = "", public_all: bool = True) -> Build:
+          label: str = "", bulk: bool = False) -> Build:
     """Build ``sources`` (file name -> Verilog text) once per parameter set.
 
     ``label`` is only noted in the build directory; identity is the hash.
-    ``public_all=False`` (Verilator): only the top level's ports are visible to
-    cocotb, which lets Verilator optimise (about 2x faster for the bulk wrapper).
+    ``bulk=True`` for the bulk wrapper (:mod:`rast.sim.bulk`); under Verilator
+    only its marked ports are visible and cocotb clocks it
+    (:data:`BULK_VERILATOR_ARGS`); Icarus keeps the wrapper's own clock.
     """
     simulator = simulator or default_simulator()
     if simulator not in SIMULATORS:
@@ -129,8 +137,8 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
     waves = waves_requested() if waves is None else bool(waves)
     if simulator == "verilator":
         setup_verilator()
-        args = ["--timing", "-CFLAGS", "-fcoroutines", *verilator_warning_args(),
-                *(() if public_all else PORTS_ONLY_PUBLIC),
+        args = [*(BULK_VERILATOR_ARGS if bulk else ("--timing", "-CFLAGS", "-fcoroutines")),
+                *verilator_warning_args(),
                 # VCD (cocotb adds --trace): the wheel's FST writer needs lz4.h,
                 # which a bare machine does not have
                 *(["--trace-structs"] if waves else []),
@@ -142,7 +150,7 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
     h = hashlib.sha256()
     for name in sorted(sources):
         h.update(name.encode() + b"\0" + sources[name].encode() + b"\0")
-    h.update(json.dumps([simulator, toplevel, waves, args, TIMESCALE, public_all,
+    h.update(json.dumps([simulator, toplevel, waves, args, TIMESCALE,
                          _tool_versions(simulator)]).encode())
     digest = h.hexdigest()[:16]
     # the directory is named by identity only (simulator, top, hash), so callers that
@@ -191,7 +199,8 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
                 built = True
         finally:
             fcntl.flock(lockf, fcntl.LOCK_UN)
-    return Build(simulator, toplevel, bdir, waves, time.monotonic() - t0 if built else 0.0)
+    return Build(simulator, toplevel, bdir, waves, time.monotonic() - t0 if built else 0.0,
+                 external_clock=bulk and simulator == "verilator")
 
 
 def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
@@ -215,6 +224,8 @@ def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
     runs.mkdir(parents=True, exist_ok=True)
     run_dir = Path(tempfile.mkdtemp(prefix=f"{name}-", dir=runs))
     env = {"RAST_RUN_DIR": str(run_dir), **(extra_env or {})}
+    if b.external_clock:
+        env[EXTERNAL_CLOCK_ENV] = "1"
     runner = get_runner(b.simulator)
     results = run_dir / "results.xml"
     plusargs = []

@@ -209,6 +209,10 @@ class BulkBench:
         from rast.sim import bulk
         d = run_dir()
         bulk.write_job(job, d, n_out=n_out)
+        if os.environ.get(bulk.EXTERNAL_CLOCK_ENV):
+            # built with runner.BULK_VERILATOR_ARGS: cocotb's clock in C++ (GPI), no Python per edge
+            from cocotb.clock import Clock
+            Clock(self.dut.clk, bulk.CLOCK_PERIOD_NS, "ns", impl="gpi").start()
         self.dut.start.value = 0
         await Timer(20, "ns")
         t0 = time.monotonic()

@@ -20,7 +20,7 @@ STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 def _run(simulator, channels, kind, seed, stalls, interpolation="fir"):
     sources, top = top_sources(channels, interpolation=interpolation, **TEST_CONTRACT)
     g, s = STALLS[stalls]
-    cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator, public_all=False,
+    cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator, bulk=True,
                label=f"top{channels}{interpolation}",
                name=f"{kind}-{channels}ch-{stalls}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=g,
