@@ -4,8 +4,9 @@ Runs the same job twice on the same Verilog (replay top inside the bulk
 wrapper, ``rast.sim.bulk``), in one invocation:
 
 1. under cocotb + Verilator (``rast.sim.tb_e2e.bench``): Python writes the
-   stimulus files, raises ``start`` and waits for ``done``; the wrapper clocks
-   itself (``always #5``, ``--timing``), no Python runs per sample;
+   stimulus files, raises ``start`` and waits for ``done``; cocotb's GPI clock
+   (C++) drives the wrapper's ``clk``, no Python runs per sample
+   (``docs/cosim_speed.md``: where the rest of the time goes);
 2. in a bare Verilator C++ harness (``sim/harness/main.cpp``): no Python, no
    VPI, the clock toggled from C++.
 
