@@ -179,13 +179,7 @@ def tap_modulation(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
     """m_k(t) of the tap ``windmill.range_cell``: the turbine's echo, every scatterer (and
     wire segment, and the tower at the hub) weighted by its range-cell weight; complex128.
     The taps of one turbine sum to :func:`rast.model.turbine.modulation` of the turbine."""
-    from .turbine import CHUNK_SAMPLES
+    from .turbine import evaluate_in_chunks
     if windmill.range_cell is None:
         raise ValueError(f"windmill {windmill.name!r} is not a delay tap")
-    t_s = np.asarray(t_s, dtype=float)
-    out = np.empty(t_s.shape, dtype=complex)
-    flat_t, flat_out = t_s.reshape(-1), out.reshape(-1)
-    for start in range(0, flat_t.size, CHUNK_SAMPLES):
-        stop = start + CHUNK_SAMPLES
-        flat_out[start:stop] = _tap_chunk(windmill, flat_t[start:stop], wavelength_m)
-    return out
+    return evaluate_in_chunks(_tap_chunk, windmill, t_s, wavelength_m)

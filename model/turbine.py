@@ -19,7 +19,7 @@ import numpy as np
 from .config import BladeFlash, WeightTable, Windmill
 
 __all__ = ["blade_angles", "modulation", "modulation_reference", "max_doppler_hz", "point_weights",
-           "shadow_factor", "wire_return", "CHUNK_SAMPLES"]
+           "shadow_factor", "wire_return", "CHUNK_SAMPLES", "evaluate_in_chunks"]
 
 #: Samples evaluated at a time: bounds the (scatterers × blades × samples) work array.
 CHUNK_SAMPLES = 1 << 12
@@ -158,12 +158,18 @@ def modulation(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
     if windmill.range_cell is not None:
         from .extended import tap_modulation
         return tap_modulation(windmill, t_s, wavelength_m)
+    return evaluate_in_chunks(_modulation_chunk, windmill, t_s, wavelength_m)
+
+
+def evaluate_in_chunks(chunk_fn, windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
+    """``chunk_fn(windmill, t, wavelength_m)`` over ``t_s`` of any shape, CHUNK_SAMPLES
+    times at a time (bounded memory), as one complex128 array of ``t_s``'s shape."""
     t_s = np.asarray(t_s, dtype=float)
     out = np.empty(t_s.shape, dtype=complex)
     flat_t, flat_out = t_s.reshape(-1), out.reshape(-1)
     for start in range(0, flat_t.size, CHUNK_SAMPLES):
         stop = start + CHUNK_SAMPLES
-        flat_out[start:stop] = _modulation_chunk(windmill, flat_t[start:stop], wavelength_m)
+        flat_out[start:stop] = chunk_fn(windmill, flat_t[start:stop], wavelength_m)
     return out
 
 
