@@ -178,7 +178,7 @@ def run(args) -> int:
                   f"mismatches          {rep['mismatches']}",
                   f"RTL run time        {rep['rtl_wall_s']:.1f} s wall, "
                   f"{rep['samples_per_s'] / 1e6:.2f} M simulated samples/s",
-                  f"model run time      {rep['model_s']:.1f} s",
+                  f"model wait          {rep['model_s']:.1f} s (the model runs beside the RTL)",
                   f"spectrograms equal  {rep['spectrograms_equal'] if rep['doppler'] else 'n/a (less than one CPI)'}"]
         if rep.get("sfdr"):
             lines.append(f"SFDR of the RTL's samples over ±{e.farm.radar.prf_hz / 2:g} Hz outside each gate's "
@@ -195,8 +195,11 @@ def run(args) -> int:
         for d in rep["doppler"]:
             state = ("ok" if d["ok"] else "OFF BY MORE THAN ONE BIN") if d["reached"] else \
                 "its peak is not inside this run"
+            shared = "" if d["windmill_hz"] == d["physics_hz"] else \
+                f", the gate's edge; its own {d['windmill_hz']:.1f} Hz"
             lines.append(f"max Doppler {d['windmill']:<8} RTL {d['measured_hz']:8.1f} Hz, physics "
-                         f"{d['physics_hz']:8.1f} Hz (bin {d['bin_hz']:g} Hz, peak {d['physics_max_hz']:.0f} Hz): {state}")
+                         f"{d['physics_hz']:8.1f} Hz (bin {d['bin_hz']:g} Hz, peak {d['physics_max_hz']:.0f} Hz"
+                         f"{shared}): {state}")
     lines.append(f"total wall time     {wall:.1f} s (including build and model)")
     if failure:
         lines += ["", "FAILED:", failure]

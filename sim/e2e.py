@@ -168,7 +168,11 @@ def doppler_check(e: E2E, spectra: list, *, edge_db: float = 6.0) -> list[dict]:
     strongest line), and both values (Hz) with the bin width. Searching the
     whole band, not a window around the expected value, lets a misplaced or
     missing signature fail. 6 dB: the Hann window's main lobe is 6 dB down
-    one bin from its centre, so the edge of a line lies within a bin of it."""
+    one bin from its centre, so the edge of a line lies within a bin of it.
+
+    Windmills that share a range gate share its spectrogram: the edge physics
+    predicts in a frame (``physics_hz``) is the farthest Doppler, on that side,
+    of all the gate's windmills in that frame (``windmill_hz``: this one's)."""
     from rast.model.turbine import max_doppler_hz
     farm = e.farm
     lam = farm.radar.wavelength_m
@@ -176,11 +180,14 @@ def doppler_check(e: E2E, spectra: list, *, edge_db: float = 6.0) -> list[dict]:
     for g, (_, rk, members) in enumerate(e.gates):
         spec = spectra[g]
         res = spec.resolution_hz
+        tracks = {wi: physics_doppler_track(farm.windmills[wi], lam, spec.times_s) for wi in members}
         for wi in members:
             w = farm.windmills[wi]
-            track = physics_doppler_track(w, lam, spec.times_s)
+            track = tracks[wi]
             j = int(np.argmax(np.abs(track)))
-            expected = float(track[j])
+            own = float(track[j])
+            side_sign = 1.0 if own >= 0 else -1.0
+            expected = side_sign * max(max(side_sign * float(t[j]), 0.0) for t in tracks.values())
             frame = spec.power_db[j]
             strong = np.nonzero(frame >= frame.max() - edge_db)[0]
             side = strong[np.sign(spec.doppler_hz[strong]) == np.sign(expected)]
@@ -192,7 +199,7 @@ def doppler_check(e: E2E, spectra: list, *, edge_db: float = 6.0) -> list[dict]:
             # the windmill's maximum Doppler is only seen if its peak falls inside the frames
             reached = run_max >= top - res
             out.append(dict(windmill=w.name, range_km=rk, frame_time_s=float(spec.times_s[j]),
-                            physics_hz=expected, measured_hz=measured, bin_hz=res,
+                            physics_hz=expected, windmill_hz=own, measured_hz=measured, bin_hz=res,
                             physics_run_max_hz=run_max, physics_max_hz=top, reached=bool(reached),
                             ok=bool(reached and abs(measured - expected) <= res)))
     return out

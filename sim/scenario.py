@@ -25,7 +25,8 @@ from rast.model.loadplan import manifest_to_register_writes, pool_layout, free_r
 
 from .bulk import BulkJob
 
-__all__ = ["TEST_CONTRACT", "Scenario", "job_inputs", "model_outputs", "random_scenario", "farm_scenario"]
+__all__ = ["TEST_CONTRACT", "Scenario", "job_inputs", "model_outputs", "ModelBeside", "random_scenario",
+           "farm_scenario"]
 
 
 @dataclass
@@ -75,6 +76,44 @@ def model_outputs(sc: Scenario, xi=None, xq=None):
     if n < len(xi):
         run(n, len(xi))
     return np.concatenate(ys_i), np.concatenate(ys_q), int(m.overflow)
+
+
+class ModelBeside:
+    """:func:`model_outputs` in a forked process, started before the simulation so that
+    the model runs on the second core while the simulator runs on the first.
+
+    The child writes ``model.npz`` into ``directory``; :meth:`result` waits for it and
+    returns what :func:`model_outputs` returns. A child that fails is reported with its
+    exit code (the model is then run here, so a run never loses its check).
+    """
+
+    def __init__(self, sc: Scenario, directory):
+        import multiprocessing
+        from pathlib import Path
+        self._sc = sc
+        self._path = Path(directory) / "model.npz"
+        self._path.unlink(missing_ok=True)
+        self._proc = multiprocessing.get_context("fork").Process(
+            target=_model_to_file, args=(sc, self._path), daemon=True)
+        self._proc.start()
+
+    def result(self):
+        self._proc.join()
+        if self._proc.exitcode != 0 or not self._path.exists():
+            import warnings
+            warnings.warn(f"the model process ended with {self._proc.exitcode}; running the model here")
+            return model_outputs(self._sc)
+        with np.load(self._path) as f:
+            out = f["yi"], f["yq"], int(f["overflow"])
+        self._path.unlink()
+        return out
+
+
+def _model_to_file(sc: Scenario, path) -> None:
+    yi, yq, overflow = model_outputs(sc)
+    tmp = path.with_name(path.stem + ".partial.npz")
+    np.savez(tmp, yi=yi, yq=yq, overflow=overflow)
+    tmp.rename(path)
 
 
 # ---------------------------------------------------------------------------

@@ -19,7 +19,7 @@ import numpy as np
 from rast.model.radar import spectrogram
 from rast.sim import bulk
 from rast.sim.e2e import doppler_check, gate_sfdr, prepare, receiver, save_json
-from rast.sim.scenario import model_outputs
+from rast.sim.scenario import ModelBeside
 from rast.sim.tb_top import check_bulk_run
 from rast.sim.testbench import BulkBench, Scoreboard, params, run_dir
 
@@ -32,10 +32,11 @@ async def e2e(dut):
     e = prepare(p["config"], p["seconds"], channels=p.get("channels"), noise_rms=p.get("noise_rms", 0.0))
     t_prep = time.monotonic() - t0
     cocotb.log.info("e2e %s: %s", e.scenario.name, e.info)
+    beside = ModelBeside(e.scenario, d)          # the model on the other core, during the RTL run
     summary = await BulkBench(dut).run(e.scenario.job, progress=True)
     t1 = time.monotonic()
-    expected = model_outputs(e.scenario)
-    t_model = time.monotonic() - t1
+    expected = beside.result()
+    t_model = time.monotonic() - t1               # the wait for the model after the RTL run
     rep = check_bulk_run(e.scenario, summary, expected=expected,
                          overflow_observed=summary.get("obs_overflow"))
     _, idx, gi, gq = bulk.read_outputs(d)
