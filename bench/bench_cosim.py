@@ -37,6 +37,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=1.0)
     ap.add_argument("--channels", type=int, default=4)
     ap.add_argument("--json", default=None, help="also write the figures to this file")
+    ap.add_argument("--verilator-arg", action="append", default=[], metavar="ARG",
+                    help="add ARG to both Verilator builds (repeat it; e.g. --verilator-arg=-O3)")
     args = ap.parse_args(argv)
 
     from rast.sim import bulk, runner
@@ -49,12 +51,15 @@ def main(argv=None) -> int:
     c = e.scenario.contract
     sources, top = top_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
                                max_increment=c.max_increment)
+    if args.verilator_arg:
+        print(f"added to both Verilator builds: {' '.join(args.verilator_arg)}")
     print(f"job: {Path(config).name}, {c.channels} channels, {e.pulse.n_pulses} pulses = "
           f"{args.seconds:g} s of radar time, {e.info['samples']:,} RTS samples at "
           f"{e.farm.sample_rate_mhz:g} MHz", flush=True)
 
     t = time.monotonic()
-    b = runner.build(sources, top, simulator="verilator", waves=False, label=f"bench{c.channels}", bulk=True)
+    b = runner.build(sources, top, simulator="verilator", waves=False, label=f"bench{c.channels}", bulk=True,
+                     build_args=tuple(args.verilator_arg))
     cocotb_build = time.monotonic() - t
     t = time.monotonic()
     params = dict(config=config, seconds=args.seconds, channels=args.channels)
@@ -64,7 +69,7 @@ def main(argv=None) -> int:
     cb = json.loads((run_dir / "bench.json").read_text())
 
     t = time.monotonic()
-    exe = build_harness(sources, top)
+    exe = build_harness(sources, top, extra_args=tuple(args.verilator_arg))
     harness_build = time.monotonic() - t
     hdir = exe.parent.parent / "run"
     if hdir.exists():
@@ -87,7 +92,7 @@ def main(argv=None) -> int:
                bare_samples_per_s=bare_rate, bare_run_s=hb["wall_s"],
                bare_process_s=harness_process, bare_build_s=harness_build,
                ratio_bare_over_cosim=bare_rate / cosim_rate, outputs_identical=same,
-               cpus=os.cpu_count())
+               verilator_args=args.verilator_arg, cpus=os.cpu_count())
     print(f"cocotb + Verilator : {cosim_rate / 1e6:6.2f} M samples/s  ({cb['wall_s']:.1f} s for "
           f"{args.seconds:g} s of radar time; process incl. start-up {cocotb_process:.1f} s; build "
           f"{'cached' if b.build_seconds == 0 else f'{b.build_seconds:.0f} s'})")

@@ -195,8 +195,8 @@ def run(args) -> int:
         for d in rep["doppler"]:
             state = ("ok" if d["ok"] else "OFF BY MORE THAN ONE BIN") if d["reached"] else \
                 "its peak is not inside this run"
-            shared = "" if d["windmill_hz"] == d["physics_hz"] else \
-                f", the gate's edge; its own {d['windmill_hz']:.1f} Hz"
+            shared = "" if d["explained_by"] == d["windmill"] else \
+                f", the edge of {d['explained_by']} in the same gate; its own {d['windmill_hz']:.1f} Hz"
             lines.append(f"max Doppler {d['windmill']:<8} RTL {d['measured_hz']:8.1f} Hz, physics "
                          f"{d['physics_hz']:8.1f} Hz (bin {d['bin_hz']:g} Hz, peak {d['physics_max_hz']:.0f} Hz"
                          f"{shared}): {state}")

@@ -1,8 +1,9 @@
 """Build the bare Verilator C++ harness (``main.cpp``) around the bulk wrapper.
 
 Same Verilog as the cocotb build (``rast.sim.top.top_sources``), clock made a
-port with ``-DRAST_EXTERNAL_CLOCK``, no ``--vpi``/``--public-flat-rw``, the
-same waived warning classes. Cached like the cocotb builds, per Verilog hash.
+port with ``-DRAST_EXTERNAL_CLOCK``, the C++ at ``-O3`` as in the cocotb bulk
+build, no ``--vpi``/``--public-flat-rw``, the same waived warning classes.
+Cached like the cocotb builds, per Verilog hash and flags.
 """
 
 from __future__ import annotations
@@ -19,11 +20,15 @@ __all__ = ["build_harness"]
 HERE = Path(__file__).resolve().parent
 
 
-def build_harness(sources: dict[str, str], toplevel: str = "rast_bulk", jobs: int = 2) -> Path:
-    """Return the path of the harness executable for ``sources``."""
+def build_harness(sources: dict[str, str], toplevel: str = "rast_bulk", jobs: int = 2,
+                  extra_args: tuple[str, ...] = ()) -> Path:
+    """Return the path of the harness executable for ``sources``, built with
+    ``extra_args`` added to Verilator's command (flag trials of ``bench_cosim``)."""
     setup_verilator()
     main = (HERE / "main.cpp").read_text()
     h = hashlib.sha256(main.encode())
+    flags = (*runner.BULK_CFLAGS, *extra_args)
+    h.update("\0".join(flags).encode())
     for k in sorted(sources):
         h.update(k.encode() + sources[k].encode())
     bdir = runner.SIM_BUILD / f"harness-{toplevel}-{h.hexdigest()[:16]}"
@@ -38,6 +43,6 @@ def build_harness(sources: dict[str, str], toplevel: str = "rast_bulk", jobs: in
             (bdir / k).write_text(v)
             paths.append(str(bdir / k))
         build_verilated(["--cc", "--exe", "--build", "-j", str(jobs), "-DRAST_EXTERNAL_CLOCK",
-                         "--top-module", toplevel, "-o", "harness", str(HERE / "main.cpp"), *paths],
+                         "--top-module", toplevel, "-o", "harness", *flags, str(HERE / "main.cpp"), *paths],
                         bdir, "the bare harness")
     return exe
