@@ -197,10 +197,9 @@ def doppler_check(e: E2E, spectra: list, *, edge_db: float = 6.0) -> list[dict]:
         spec = spectra[g]
         res = spec.resolution_hz
         cpi_s = 1.0 / res
-        tracks = {wi: physics_doppler_track(farm.windmills[wi], lam, spec.times_s) for wi in members}
         for wi in members:
             w = farm.windmills[wi]
-            track = tracks[wi]
+            track = physics_doppler_track(w, lam, spec.times_s)
             j = int(np.argmax(np.abs(track)))
             own = float(track[j])
             side_sign = 1.0 if own >= 0 else -1.0
@@ -210,12 +209,14 @@ def doppler_check(e: E2E, spectra: list, *, edge_db: float = 6.0) -> list[dict]:
             measured = (float(spec.doppler_hz[side[np.argmax(np.abs(spec.doppler_hz[side]))]])
                         if side.size else 0.0)
             # each member's span on this side during the frame: |centre| .. farthest
+            # (an odd number of instants: the middle one is the frame's centre)
             during = np.linspace(spec.times_s[j] - cpi_s / 2, spec.times_s[j] + cpi_s / 2, 129)
             best = None
             for mi in [wi] + [k for k in members if k != wi]:
                 m = farm.windmills[mi]
-                centre = max(float((side_sign * _scatterer_dopplers(m, lam, spec.times_s[j:j + 1])).max()), 0.0)
-                far = max(float((side_sign * _scatterer_dopplers(m, lam, during)).max()), centre)
+                on_side = (side_sign * _scatterer_dopplers(m, lam, during)).max(axis=0)
+                centre = max(float(on_side[during.size // 2]), 0.0)
+                far = max(float(on_side.max()), centre)
                 if far <= res:
                     continue            # no line of this windmill on this side in this frame
                 nearest = side_sign * min(max(side_sign * measured, centre), far)
