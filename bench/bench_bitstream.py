@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 from rast.gateware.build import BuildConfig, build
+from rast.model.fixedpoint import ReplayContract
 
 #: label -> (what it answers, BuildConfig keyword arguments)
 LADDER = {
@@ -48,16 +49,22 @@ def seed_capacity():
     from rast.model.config import load_config
     from rast.model.stream import build_farm_streams
     examples = Path(__file__).resolve().parent.parent / "examples"
-    print("\nturbines per LFE5U-85F (stream pool, one stream's room to reload, 4x max Doppler, FIR):")
+    windows = (ReplayContract.max_tap, 1022)
+    print("\nturbines per LFE5U-85F (stream pool, one stream's room to reload, 4x max Doppler, FIR;"
+          f" common delay {ReplayContract.max_delay}; each channel's delay window {windows[0]} "
+          f"(default) or {windows[1]} samples deep):")
     for name in ("sec4_3_3_three_blades", "sec4_3_3_realistic", "sec4_3_4_four_windmills",
                  "two_windmills"):
         farm = load_config(examples / f"{name}.toml")
         for s in build_farm_streams(farm).streams:
             words = s.plan.length
-            n, pool, lim = turbines_per_device(words)
+            cells = []
+            for window in windows:
+                n, pool, lim = turbines_per_device(words, max_tap=window)
+                cells.append(f"window {window}: {n:>2}, pool {pool} words (next one: {lim})")
             print(f"  {name:<24} {s.windmill.name:<5} {s.windmill.rpm:>3g} rpm "
                   f"{s.windmill.num_blades} blade(s) {s.plan.max_doppler_hz:>6.0f} Hz "
-                  f"{words:>6} words: {n:>2} per device, pool {pool} words (next one: {lim})")
+                  f"{words:>6} words; " + "; ".join(cells))
 
 
 def main():

@@ -50,7 +50,7 @@ def main(argv=None) -> int:
     e = prepare(config, args.seconds, channels=args.channels)
     c = e.scenario.contract
     sources, top = top_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
-                               max_increment=c.max_increment)
+                               max_tap=c.max_tap)
     if args.verilator_arg:
         print(f"added to both Verilator builds: {' '.join(args.verilator_arg)}")
     print(f"job: {Path(config).name}, {c.channels} channels, {e.pulse.n_pulses} pulses = "

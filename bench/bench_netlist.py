@@ -51,7 +51,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=21)
     args = ap.parse_args(argv)
     d = BuildConfig()
-    contract = dict(pool_words=d.pool_words, max_delay=d.max_delay, max_increment=d.max_increment)
+    contract = dict(pool_words=d.pool_words, max_delay=d.max_delay, max_tap=d.max_tap)
     rows = [_measure("behavioural", top_sources, args.channels, contract, args.pulses, args.seed),
             _measure("netlist", replay_netlist_sources, args.channels, contract, args.pulses, args.seed)]
     print(f"replay top, {args.channels} channel(s), default build depths, FIR, {args.pulses} PRIs of 240 samples")

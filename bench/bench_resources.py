@@ -66,7 +66,7 @@ def main(argv=None):
     with ThreadPoolExecutor(args.jobs) as ex:
         futs = {k: ex.submit(synth, k, make(), args.out) for k, make in jobs.items()}
         res = {k: f.result() for k, f in futs.items()}
-    print(f"pool_words={args.pool_words} (x2 banks), max_delay=4094, max_increment=1022, "
+    print(f"pool_words={args.pool_words}, max_delay={ReplayContract.max_delay}, max_tap={ReplayContract.max_tap}, "
           f"cmult_form={args.cmult_form}, interpolation={args.interpolation}")
     hdr = ["design", "LUT4", "FF", "CCU2C", "MULT18X18D", "ALU54B", "DP16KD", "DPR16X4", "synth s"]
     print("| " + " | ".join(hdr) + " |")

@@ -52,7 +52,7 @@ class BuildConfig:
     # the replay block's parameters, defaults as the contract's
     pool_words: int = ReplayContract.pool_words
     max_delay: int = ReplayContract.max_delay
-    max_increment: int = ReplayContract.max_increment
+    max_tap: int = ReplayContract.max_tap
     interpolation: str = ReplayContract.interpolation
     cmult_form: str = ReplayContract.cmult_form
     seed: int = 1
@@ -63,7 +63,7 @@ class BuildConfig:
 
     def replay_kwargs(self):
         return dict(channels=self.channels, pool_words=self.pool_words,
-                    max_delay=self.max_delay, max_increment=self.max_increment,
+                    max_delay=self.max_delay, max_tap=self.max_tap,
                     interpolation=self.interpolation, cmult_form=self.cmult_form)
 
 
@@ -190,7 +190,7 @@ def check(cfg: BuildConfig):
         need = total_blocks(contract)
         if need > blocks[0]:
             raise ValueError(f"{contract.channels} channels with a {contract.pool_words}-word stream pool and "
-                             f"delays up to {contract.max_delay}/{contract.max_increment} samples "
+                             f"delays up to {contract.max_delay} + {contract.max_tap} samples "
                              f"({contract.interpolation} interpolation) need {need} DP16KD block RAMs; "
                              f"the {platform.device} has {blocks[0]}")
         dsps = channel_dsps(contract) * contract.channels
@@ -225,7 +225,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
                    "speed": str(platform.speed)},
         "config": {"channels": cfg.channels, "clock_mhz": cfg.clock_mhz, "baud": cfg.baud,
                    "pool_words": cfg.pool_words, "max_delay": cfg.max_delay,
-                   "max_increment": cfg.max_increment, "interpolation": cfg.interpolation,
+                   "max_tap": cfg.max_tap, "interpolation": cfg.interpolation,
                    "cmult_form": cfg.cmult_form, "seed": cfg.seed},
         "pll": {"f_in_mhz": top.pll.f_in_mhz, "f_out_mhz": top.pll.f_out_mhz,
                 "refclk_div": top.pll.refclk_div, "feedback_div": top.pll.feedback_div,
@@ -237,8 +237,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
                                 sample_rate_hz=round(top.pll.f_out_mhz * 1e6)).to_dict(),
         "memory": {
             "pool_words": contract.pool_words,
-            "delay_samples": {"channel_0": contract.max_delay,
-                              "channels_1_to_n": contract.max_increment if cfg.channels > 1 else None},
+            "delay_samples": {"common": contract.max_delay, "tap": contract.max_tap},
             "latency_samples": contract.latency,
             # ADC pins to DAC pins at zero delay: L + the board's I/O stages (docs/fixed_point.md)
             "board_latency_samples": contract.board_latency,

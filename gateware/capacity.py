@@ -3,8 +3,8 @@
 Counts follow the primitives the build uses (``rast.hdl.ecp5_primitives``):
 the stream pool of ``pool_words`` 32-bit words is width-sliced over DP16KD
 (16384 words deep at 1 bit, 8192 at 2, ...; deeper pools are banks of 16384);
-per channel, its delay segment is one RAM and the FIR interpolator's
-coefficient ROM (512 x 18) one DP16KD; the channels' word caches (16 words)
+the common delay line is one RAM; per channel, its copy of the delay window
+is one RAM and the FIR interpolator's coefficient ROM (512 x 18) one DP16KD; the channels' word caches (16 words)
 are distributed RAM. The complex product and the gain use 6 MULT18X18D;
 linear interpolation 2 more, the FIR 4 more (its MAC and its linear step, I
 and Q).
@@ -13,7 +13,7 @@ and Q).
 from ..hdl.ecp5_primitives import dp16kd_mode
 from ..model.fixedpoint import ReplayContract, POOL_BANK_WORDS, pool_words_for, min_stream_length
 
-__all__ = ["ram_blocks", "pool_blocks", "channel_blocks", "total_blocks", "channel_dsps",
+__all__ = ["ram_blocks", "pool_blocks", "common_blocks", "channel_blocks", "total_blocks", "channel_dsps",
            "max_channels", "turbines_per_device", "DEVICE_BLOCKS", "DSP_PER_CHANNEL"]
 
 #: (DP16KD, MULT18X18D) per device (Lattice ECP5 family data sheet, table 1.1).
@@ -38,14 +38,19 @@ def pool_blocks(contract: ReplayContract) -> int:
     return contract.pool_words // bank * ram_blocks(32, bank)
 
 
-def channel_blocks(contract: ReplayContract, channel: int) -> int:
-    """DP16KD of one channel: delay segment, interpolator ROM."""
-    return ram_blocks(32, contract.delay_depth(channel)) + _INTERP_ROMS[contract.interpolation]
+def common_blocks(contract: ReplayContract) -> int:
+    """DP16KD of the common delay line."""
+    return ram_blocks(32, contract.common_depth)
+
+
+def channel_blocks(contract: ReplayContract) -> int:
+    """DP16KD of one channel: its window copy, its interpolator ROM."""
+    return ram_blocks(32, contract.window_depth) + _INTERP_ROMS[contract.interpolation]
 
 
 def total_blocks(contract: ReplayContract) -> int:
-    """DP16KD of the replay block: the pool and every channel."""
-    return pool_blocks(contract) + sum(channel_blocks(contract, l) for l in range(contract.channels))
+    """DP16KD of the replay block: the pool, the common line and every channel."""
+    return pool_blocks(contract) + common_blocks(contract) + contract.channels * channel_blocks(contract)
 
 
 def channel_dsps(contract: ReplayContract) -> int:

@@ -37,7 +37,9 @@ class RegisterFile(wiring.Component):
     -------
     bus : In(BusSignature)
     enable, gain, delay, length, increment : Out, one per channel
-        ``delay`` is the applied delay (copied from the DELAY registers by APPLY).
+        ``delay`` is the applied tap (copied from the DELAY registers by APPLY).
+    common_delay : Out
+        The applied common delay (copied from COMMON_DELAY by APPLY).
     swap_req, swap_force : Out(1) per channel, strobes of a CTRL write
     base : Out(pool address) per channel
     pending_next, bank_next : In(1) per channel, from the stream replays
@@ -58,7 +60,8 @@ class RegisterFile(wiring.Component):
         self._widths = {name: rmap.reg(name, 0).field(fname).width for name, fname in
                         (("GAIN", "gain"), ("LENGTH", "length"), ("PHASE_INC", "inc"),
                                            ("BASE", "base"))}
-        self._dw = [rmap.reg("DELAY", l).field("delay").width for l in range(N)]
+        self._dw = rmap.reg("DELAY", 0).field("delay").width
+        self._cw = rmap.reg("COMMON_DELAY").field("delay").width
         super().__init__({
             "bus": In(BusSignature(rmap.addr_width)),
             "enable": Out(1).array(N),
@@ -66,7 +69,8 @@ class RegisterFile(wiring.Component):
             "length": Out(self._widths["LENGTH"]).array(N),
             "increment": Out(self._widths["PHASE_INC"]).array(N),
             "base": Out(self._widths["BASE"]).array(N),
-            "delay": Out(max(self._dw)).array(N),
+            "delay": Out(self._dw).array(N),
+            "common_delay": Out(self._cw),
             "swap_req": Out(1).array(N),
             "swap_force": Out(1).array(N),
             "pending_next": In(1).array(N),
@@ -130,10 +134,16 @@ class RegisterFile(wiring.Component):
                 self.swap_req[l].eq(wsel(ctrl) & swap_written & ~force),
             ]
             d = rmap.reg("DELAY", l)
-            applied = Signal(self._dw[l], init=d.fields[0].reset, name=f"delay{l}_applied")
+            applied = Signal(self._dw, init=d.fields[0].reset, name=f"delay{l}_applied")
             with m.If(apply):
                 m.d.sync += applied.eq(storage[("DELAY", l, "delay")])
             m.d.comb += self.delay[l].eq(applied)
+
+        common = rmap.reg("COMMON_DELAY")
+        applied = Signal(self._cw, init=common.fields[0].reset, name="common_delay_applied")
+        with m.If(apply):
+            m.d.sync += applied.eq(storage[("COMMON_DELAY", None, "delay")])
+        m.d.comb += self.common_delay.eq(applied)
 
         # Pool write path, registered.
         addr = storage[("STREAM_ADDR", None, "addr")]

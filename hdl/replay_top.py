@@ -12,8 +12,8 @@ from .stream_pool import StreamPool
 from .registers import BusSignature, RegisterFile
 from .ecp5_primitives import RegisteredMultiplier
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, STREAM_WIDTH, OUTPUT_WIDTH,
-                                PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, SEGMENT_LATENCY,
-                                POOL_FETCH_LATENCY)
+                                PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, POOL_FETCH_LATENCY,
+                                sum_latency)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
 
@@ -21,22 +21,28 @@ __all__ = ["WindFarmReplay"]
 
 
 class WindFarmReplay(wiring.Component):
-    """Replay block: delay chain, per-channel stream x gain, sum, saturation;
-    the streams in one pool, fetched into per-channel caches by a scan.
+    """Replay block: a common delay line, then per channel a tap of the delay
+    window, stream x gain; an adder tree, saturation. The streams sit in one
+    pool, fetched into per-channel caches by a scan.
 
     The data path advances once per accepted input sample; each input sample
-    gives exactly one output sample, ``latency`` (plus the programmed delays)
-    samples later, whatever the gaps in ``i.valid`` or ``o.ready``.
+    gives exactly one output sample, ``latency`` (plus COMMON_DELAY and the
+    channel's DELAY) samples later, whatever the gaps in ``i.valid`` or
+    ``o.ready``. Each channel's window is its own RAM copy (written with the
+    common line's output, read at the channel's tap), so any number of
+    channels may share a tap.
     Bit-exact model: :class:`rast.model.datapath.ReplayModel`.
 
     Parameters
     ----------
     channels : int
         N, 1 to 64.
-    pool_words, max_delay, max_increment, interpolation, cmult_form, sample_rate_hz :
+    pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz :
         See :class:`rast.model.fixedpoint.ReplayContract`.
     init : list of ChannelInit, optional
         Power-up streams (in the pool at their bases) and register values.
+    init_common_delay : int
+        Power-up COMMON_DELAY.
 
     Members
     -------
@@ -48,10 +54,12 @@ class WindFarmReplay(wiring.Component):
         Sticky saturation flag (cleared by reading STATUS).
     """
 
-    def __init__(self, channels=4, *, pool_words=65536, max_delay=4094, max_increment=1022,
-                 interpolation="fir", cmult_form="4mult", sample_rate_hz=0, init=None):
+    def __init__(self, channels=4, *, pool_words=ReplayContract.pool_words,
+                 max_delay=ReplayContract.max_delay, max_tap=ReplayContract.max_tap,
+                 interpolation="fir", cmult_form="4mult", sample_rate_hz=0, init=None,
+                 init_common_delay=0):
         self._contract = ReplayContract(channels=channels, pool_words=pool_words,
-                                        max_delay=max_delay, max_increment=max_increment,
+                                        max_delay=max_delay, max_tap=max_tap,
                                         interpolation=interpolation, cmult_form=cmult_form,
                                         sample_rate_hz=sample_rate_hz)
         init = list(init or [])
@@ -63,7 +71,10 @@ class WindFarmReplay(wiring.Component):
                 raise TypeError(f"Initial contents of channel {k} must be a ChannelInit, not {ini!r}")
         self._init = init + [ChannelInit()] * (channels - len(init))
         self._pool_init = pool_contents(init, pool_words) if any(ini.words for ini in init) else []
-        self._rmap = register_map(self._contract, self._init)
+        if not isinstance(init_common_delay, int) or not 0 <= init_common_delay <= max_delay:
+            raise ValueError(f"Initial common delay must be an integer in [0, {max_delay}], "
+                             f"not {init_common_delay!r}")
+        self._rmap = register_map(self._contract, self._init, init_common_delay)
         super().__init__({
             "i": In(stream.Signature(IQ(INPUT_WIDTH))),
             "o": Out(stream.Signature(IQ(OUTPUT_WIDTH))),
@@ -76,6 +87,11 @@ class WindFarmReplay(wiring.Component):
         return self._contract
 
     @property
+    def init_common_delay(self) -> int:
+        """Power-up COMMON_DELAY."""
+        return self._rmap.reg("COMMON_DELAY").field("delay").reset
+
+    @property
     def register_map(self):
         return self._rmap
 
@@ -85,7 +101,7 @@ class WindFarmReplay(wiring.Component):
 
     @property
     def latency(self):
-        """Fixed latency L (samples): ``3*N + 3 + cmult latency``."""
+        """Fixed latency L (samples): ``6 + cmult latency + 2 + sum_latency(N)``."""
         return self._contract.latency
 
     def elaborate(self, platform):
@@ -126,10 +142,12 @@ class WindFarmReplay(wiring.Component):
         grants = []
 
         SW = c.sum_width
-        prev = self.i.payload.as_value()
-        chain = None
+        m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay)
+        m.d.comb += [common.en.eq(ce), common.i.eq(self.i.payload.as_value()),
+                     common.delay.eq(regs.common_delay)]
+        leaves = []
         for l in range(N):
-            seg = DelayLine(2 * INPUT_WIDTH, c.max_segment_delay(l))
+            seg = DelayLine(2 * INPUT_WIDTH, c.max_tap)
             # Power-up BASE, LENGTH and PHASE_INC as the register map clamps them.
             sr = StreamReplay(c.pool_words, channels=N, interpolation=c.interpolation,
                               init_base=self._rmap.reg("BASE", l).field("base").reset,
@@ -140,7 +158,7 @@ class WindFarmReplay(wiring.Component):
             m.submodules[f"stream{l}"] = sr
             m.submodules[f"cmult{l}"] = cm
             m.d.comb += [
-                seg.en.eq(ce), seg.i.eq(prev), seg.delay.eq(regs.delay[l]),
+                seg.en.eq(ce), seg.i.eq(common.o), seg.delay.eq(regs.delay[l]),
                 sr.en.eq(ce), sr.length.eq(regs.length[l]), sr.increment.eq(regs.increment[l]),
                 sr.base.eq(regs.base[l]),
                 sr.swap_req.eq(regs.swap_req[l]), sr.swap_force.eq(regs.swap_force[l]),
@@ -150,7 +168,6 @@ class WindFarmReplay(wiring.Component):
                 regs.pending_next[l].eq(sr.pending_next), regs.bank_next[l].eq(sr.bank_next),
                 cm.en.eq(ce), cm.a.eq(seg.o), cm.b.eq(sr.o),
             ]
-            prev = seg.o
             grant = Signal(name=f"grant{l}")
             m.d.comb += grant.eq(scan[l] & sr.fetch_want)
             with m.If(grant):
@@ -172,25 +189,24 @@ class WindFarmReplay(wiring.Component):
                 with m.If(ce):
                     m.d.sync += qv.eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
                 q.append(qv)
-
-            # Systolic adder chain: SEGMENT_LATENCY registers per link equalise
-            # the delay chain's per-segment latency.
-            s = [Signal(signed(SW), name=f"sum{l}_{p}") for p in ("re", "im")]
-            for k in range(2):
-                if chain is None:
-                    src = 0
-                else:
-                    src = chain[k]
-                    for stage in range(SEGMENT_LATENCY - 1):
-                        d = Signal(signed(SW), name=f"link{l}_{stage}_{k}")
-                        with m.If(ce):
-                            m.d.sync += d.eq(src)
-                        src = d
-                with m.If(ce):
-                    m.d.sync += s[k].eq(src + q[k])
-            chain = s
+            leaves.append(q)
 
         m.d.sync += req_valid.eq(Cat(*grants).any())
+
+        # Adder tree: one registered level per halving (pairs added, an odd
+        # one registered alone), at least one level; sum_latency(N) in all.
+        level, depth = leaves, 0
+        while depth < sum_latency(N):
+            nxt = []
+            for j in range(0, len(level), 2):
+                pair = level[j:j + 2]
+                s = [Signal(signed(SW), name=f"sum{depth}_{j // 2}_{p}") for p in ("re", "im")]
+                with m.If(ce):
+                    m.d.sync += [s[k].eq(sum(v[k] for v in pair)) for k in range(2)]
+                nxt.append(s)
+            level, depth = nxt, depth + 1
+        assert len(level) == 1
+        chain = level[0]
 
         lo, hi = -(1 << (OUTPUT_WIDTH - 1)), (1 << (OUTPUT_WIDTH - 1)) - 1
         sat = []

@@ -9,22 +9,24 @@ as an input transfer counts as after that transfer).
 
 Equations (N channels, l = 0..N-1, all values visible *during* a step):
 
-* delay chain: ``t_l[n] = t_{l-1}[n - 3 - d_l[n-3]]`` with ``t_{-1} = x``
-  (``SEGMENT_LATENCY`` = 3; ``d_l`` the applied DELAY of segment l),
+* common delay line and window: ``c[n] = x[n - 3 - d_c[n-3]]``,
+  ``t_l[n] = c[n - 3 - d_l[n-3]]`` (``SEGMENT_LATENCY`` = 3; ``d_c`` the applied
+  COMMON_DELAY, ``d_l`` the applied DELAY, the tap, of channel l),
 * stream word at the multiplier: ``w_l[n] = word(state_l[n - SL])``
   (SL = :func:`~rast.model.fixedpoint.stream_latency`),
 * ``p_l[n] = cmult(t_l[n - Lc], w_l[n - Lc])``, ``q_l[n] = gain(p_l[n-2], g_l[n-2])``
   (``g_l`` = GAIN if enabled else 0),
-* systolic sum ``s_l[n] = s_{l-1}[n-3] + q_l[n-1]``, ``y[n] = saturate(s_{N-1}[n])``.
+* adder tree ``s[n] = sum_l q_l[n - S]``, ``y[n] = saturate(s[n])``
+  (S = :func:`~rast.model.fixedpoint.sum_latency`, its registered levels).
 
-Hence an echo of channel l appears ``L + sum(d_0..d_l)`` samples after the input,
-``L = 3*N + 3 + Lc``. Everything before step 0 is zero.
+Hence an echo of channel l appears ``L + d_c + d_l`` samples after the input,
+``L = 6 + Lc + 2 + S``. Everything before step 0 is zero.
 """
 
 import numpy as np
 
 from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
-                         INTERP_FRAC_BITS, PHASE_FRAC_BITS, SEGMENT_LATENCY, GAIN_LATENCY,
+                         INTERP_FRAC_BITS, PHASE_FRAC_BITS, SEGMENT_LATENCY, GAIN_LATENCY, sum_latency,
                          STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
                          FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate, pack_iq, unpack_iq)
 from .regmap import register_map
@@ -138,10 +140,10 @@ class ReplayModel:
     samples; :meth:`run` returns the output samples for them.
     """
 
-    def __init__(self, contract: ReplayContract, inits=None):
+    def __init__(self, contract: ReplayContract, inits=None, common_delay: int = 0):
         self.c = c = contract
         inits = list(inits or []) + [ChannelInit()] * (c.channels - len(inits or []))
-        self.rmap = register_map(c, inits)
+        self.rmap = register_map(c, inits, common_delay)
         N = c.channels
         self.pool = np.array(pool_contents(inits, c.pool_words), dtype=np.int64)
         self._amask = (1 << c.pool_address_width) - 1
@@ -153,8 +155,10 @@ class ReplayModel:
         self.len_act = list(self.len_next)
         self.inc_act = list(self.inc_next)
         self.gain = [i.gain & GAIN.max for i in inits]
-        self.delay_next = [min(i.delay, c.max_segment_delay(l)) for l, i in enumerate(inits)]
+        self.delay_next = [min(i.delay, c.max_tap) for i in inits]
         self.delay_act = list(self.delay_next)
+        self.common_next = self.rmap.reg("COMMON_DELAY").field("delay").reset
+        self.common_act = self.common_next
         self.bank = [0] * N
         self.pending = [0] * N
         self.phase = [0] * N
@@ -168,12 +172,11 @@ class ReplayModel:
         # from absolute step self._base on: only the last `_lookback` steps
         # can influence new outputs, so run() costs O(new steps + lookback).
         self._x = [np.zeros((2, 0), dtype=np.int64)]
-        self._d = [np.zeros((N, 0), dtype=np.int64)]
+        self._d = [np.zeros((N + 1, 0), dtype=np.int64)]    # taps, then the common delay
         self._g = [np.zeros((N, 0), dtype=np.int64)]
         self._w = [np.zeros((N, 2, 0), dtype=np.int64)]
         self._base = 0
-        self._lookback = (2 * c.latency + c.stream_latency + 16 + c.max_delay
-                          + (N - 1) * c.max_increment)
+        self._lookback = 2 * c.latency + c.stream_latency + 16 + c.max_delay + c.max_tap
 
     # ---- registers -------------------------------------------------------
     def _swap(self, l):
@@ -215,9 +218,12 @@ class ReplayModel:
             self.gain[l] = fv("gain")
         elif r.name == "DELAY":
             self.delay_next[l] = fv("delay")
+        elif r.name == "COMMON_DELAY":
+            self.common_next = fv("delay")
         elif r.name == "APPLY":
             if fv("delays"):
                 self.delay_act = list(self.delay_next)
+                self.common_act = self.common_next
         elif r.name == "BASE":
             self.base_next[l] = fv("base")
         elif r.name == "STREAM_ADDR":
@@ -241,6 +247,7 @@ class ReplayModel:
             return v
         stored = {"LENGTH": lambda: self.len_next[l], "PHASE_INC": lambda: self.inc_next[l],
                   "GAIN": lambda: self.gain[l], "DELAY": lambda: self.delay_next[l],
+                  "COMMON_DELAY": lambda: self.common_next,
                   "BASE": lambda: self.base_next[l], "STREAM_ADDR": lambda: self.stream_addr}
         if r.name in stored:
             return stored[r.name]()
@@ -301,7 +308,8 @@ class ReplayModel:
         xq = np.asarray(xq, dtype=np.int64)
         T = len(xi)
         self._x.append(np.stack([xi, xq]))
-        self._d.append(np.repeat(np.array(self.delay_act, dtype=np.int64)[:, None], T, axis=1))
+        self._d.append(np.repeat(np.array(self.delay_act + [self.common_act], dtype=np.int64)[:, None],
+                                 T, axis=1))
         geff = np.array([g if e else 0 for g, e in zip(self.gain, self.enable)], dtype=np.int64)
         self._g.append(np.repeat(geff[:, None], T, axis=1))
         self._w.append(self._advance_streams(T))
@@ -327,16 +335,16 @@ class ReplayModel:
         self._x, self._d, self._g, self._w = [x], [d], [g], [w]
         n0, n1 = n0 - self._base, n1 - self._base
         SL, Lc = c.stream_latency, c.cmult_latency
-        t = x
+        common = np.stack([delay_line(x[0], d[N]), delay_line(x[1], d[N])])
+        k = sum_latency(N)
         total = np.zeros((2, n1), dtype=np.int64)
         for l in range(N):
-            t = np.stack([delay_line(t[0], d[l]), delay_line(t[1], d[l])])
+            t = np.stack([delay_line(common[0], d[l]), delay_line(common[1], d[l])])
             ws = np.stack([_shift(w[l, 0], SL), _shift(w[l, 1], SL)])
             pi, pq = cmult(_shift(t[0], Lc), _shift(t[1], Lc), _shift(ws[0], Lc), _shift(ws[1], Lc))
             gl = _shift(g[l], GAIN_LATENCY)
             qi = gain_scale(_shift(pi, GAIN_LATENCY), gl)
             qq = gain_scale(_shift(pq, GAIN_LATENCY), gl)
-            k = 1 + SEGMENT_LATENCY * (N - 1 - l)
             total[0] += _shift(qi, k)
             total[1] += _shift(qq, k)
         yi, oi = saturate(total[0][n0:n1])

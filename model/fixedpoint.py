@@ -98,9 +98,9 @@ __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "FIR_MIN_LENGTH", "FIR_REFILL_SAMPLES", "CACHE_WORDS", "CACHE_GUARD_WORDS", "CACHE_FILL_WORDS",
             "POOL_FETCH_LATENCY", "POOL_BANK_WORDS", "cache_need_words", "fetch_wait_samples", "pool_words_for", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
             "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
-            "SEGMENT_LATENCY", "GAIN_LATENCY", "CHAIN_LATENCY",
+            "SEGMENT_LATENCY", "GAIN_LATENCY", "sum_latency",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
-            "cmult_latency", "stream_latency", "ReplayContract",
+            "cmult_latency", "stream_latency", "delay_depth", "ReplayContract",
             "DDR_INPUT_LATENCY", "DDR_OUTPUT_LATENCY", "BOARD_INPUT_LATENCY",
             "BOARD_OUTPUT_LATENCY", "BOARD_LATENCY", "TARGETS", "path_latency"]
 
@@ -245,13 +245,20 @@ def fir_coefficients() -> tuple[tuple[int, ...], ...]:
     assert all(-lim <= v < lim for row in table for v in row)
     return tuple(table)
 
-#: Pipeline latency (in samples) of one delay segment beyond its programmed
+#: Pipeline latency (in samples) of one delay line beyond its programmed
 #: delay: registered read address, block-RAM read, registered RAM output.
+#: A channel's input passes two: the common delay line, then its tap of the
+#: window line (see ``ReplayContract``).
 SEGMENT_LATENCY = 3
 #: Gain stage: registered product, registered rounding.
 GAIN_LATENCY = 2
-#: First register of the systolic adder chain.
-CHAIN_LATENCY = 1
+
+
+def sum_latency(channels: int) -> int:
+    """Registered levels of the adder tree over the channels' scaled products:
+    ``max(1, ceil(log2 N))`` (pairs are added per level, an odd one passes
+    through a register)."""
+    return max(1, (channels - 1).bit_length())
 
 CMULT_FORMS = ("4mult", "3mult")
 
@@ -402,6 +409,12 @@ def max_phase_increment(interpolation: str, channels: int = 1) -> int:
     return min(FIR_MAX_INCREMENT, scan) if interpolation == "fir" else scan
 
 
+def delay_depth(max_delay: int) -> int:
+    """Words of a delay line's RAM: the power of two >= ``max_delay + 2``
+    (the read address trails the write address by ``delay + 1``)."""
+    return 1 << max(1, (max_delay + 1).bit_length())
+
+
 def min_stream_length(interpolation: str) -> int:
     """Shortest LENGTH the block accepts (shorter values are clamped)."""
     _check_interpolation(interpolation)
@@ -420,9 +433,13 @@ class ReplayContract:
         Words of the stream pool, shared by all channels' streams: a power
         of two from 16 to POOL_BANK_WORDS, or a multiple of POOL_BANK_WORDS.
     max_delay : int
-        Largest programmable common delay (segment of channel 0), samples.
-    max_increment : int
-        Largest programmable delay increment of channels 1..N-1, samples.
+        Largest programmable common delay (COMMON_DELAY), samples: the delay
+        line every channel shares, up to the nearest turbine.
+    max_tap : int
+        Largest programmable tap (DELAY of every channel), samples: each
+        channel reads the common line's output this many samples later, from
+        its own copy of the window line, so a farm may be ``max_tap`` samples
+        deep and any number of channels may share a tap.
     interpolation : str
         ``"fir"`` (default, images below -70 dB), ``"linear"`` or ``"hold"``
         (see the interpolation section above).
@@ -434,14 +451,14 @@ class ReplayContract:
     """
     channels: int = 4
     pool_words: int = 65536
-    max_delay: int = 4094
-    max_increment: int = 1022
+    max_delay: int = 8190
+    max_tap: int = 2046
     interpolation: str = "fir"
     cmult_form: str = "4mult"
     sample_rate_hz: int = 0
 
     #: Keys of :meth:`to_dict` that are constructor parameters.
-    PARAMETERS = ("channels", "pool_words", "max_delay", "max_increment", "interpolation",
+    PARAMETERS = ("channels", "pool_words", "max_delay", "max_tap", "interpolation",
                   "cmult_form", "sample_rate_hz")
 
     def __post_init__(self):
@@ -460,8 +477,8 @@ class ReplayContract:
         if not (w % POOL_BANK_WORDS == 0 if w > POOL_BANK_WORDS else not w & (w - 1)):
             raise ValueError(f"Pool words must be a power of two from 16 to {POOL_BANK_WORDS} or a "
                              f"multiple of {POOL_BANK_WORDS}, not {w!r}")
-        posint("max_delay", "Maximum delay", self.max_delay, 0, 1 << 20)
-        posint("max_increment", "Maximum delay increment", self.max_increment, 0, 1 << 20)
+        posint("max_delay", "Maximum delay", self.max_delay, 1, 1 << 20)
+        posint("max_tap", "Maximum tap", self.max_tap, 1, 1 << 20)
         _check_interpolation(self.interpolation)
         if self.cmult_form not in CMULT_FORMS:
             raise ValueError(f"Complex multiplier form must be one of 4mult, 3mult, not {self.cmult_form!r}")
@@ -524,10 +541,12 @@ class ReplayContract:
 
     @property
     def latency(self) -> int:
-        """Fixed latency L: an echo of channel l appears ``L + sum(delay[0..l])``
-        samples after its input sample. ``L = 3*N + 1 + 2 + cmult_latency``."""
-        return (SEGMENT_LATENCY * self.channels + CHAIN_LATENCY + GAIN_LATENCY
-                + self.cmult_latency)
+        """Fixed latency L: an echo of channel l appears ``L + COMMON_DELAY +
+        DELAY[l]`` samples after its input sample. ``L = 2*3 + cmult_latency
+        + 2 + sum_latency(N)`` (two delay lines, the complex product, the gain,
+        the adder tree)."""
+        return (2 * SEGMENT_LATENCY + self.cmult_latency + GAIN_LATENCY
+                + sum_latency(self.channels))
 
     @property
     def board_latency(self) -> int:
@@ -536,13 +555,15 @@ class ReplayContract:
         not included, see :func:`path_latency`)."""
         return self.latency + BOARD_LATENCY
 
-    def delay_depth(self, channel: int) -> int:
-        """Words of the RAM of delay segment ``channel`` (power of two >= max + 2)."""
-        m = self.max_delay if channel == 0 else self.max_increment
-        return 1 << max(1, (m + 1).bit_length())
+    @property
+    def common_depth(self) -> int:
+        """Words of the common delay line's RAM (power of two >= max_delay + 2)."""
+        return delay_depth(self.max_delay)
 
-    def max_segment_delay(self, channel: int) -> int:
-        return self.max_delay if channel == 0 else self.max_increment
+    @property
+    def window_depth(self) -> int:
+        """Words of each channel's window RAM (power of two >= max_tap + 2)."""
+        return delay_depth(self.max_tap)
 
     @property
     def length_width(self) -> int:

@@ -74,25 +74,31 @@ def _fixed_latency(manifest, contract, target):
 
 
 def _channel_values(manifest, contract, target="block"):
+    """``(common_delay, [per-channel values])``: COMMON_DELAY reaches the
+    nearest windmill (at most ``max_delay``), each channel's tap the rest of
+    its delay beyond the fixed latency."""
     _check_build(manifest, contract)
     chans = manifest["registers"]["channels"]
     if len(chans) > contract.channels:
         raise ValueError(f"Manifest has {len(chans)} windmills but the replay block has "
                          f"{contract.channels} channels")
     fixed, parts = _fixed_latency(manifest, contract, target)
+    delays = [int(ch["delay_samples"]) for ch in chans]
+    near = min(range(len(chans)), key=lambda i: delays[i])
+    if delays[near] < fixed:
+        raise ValueError(f"Delay of {delays[near]} samples (windmill {chans[near]['windmill']!r}) is "
+                         f"shorter than {parts}")
+    common = min(delays[near] - fixed, contract.max_delay)
     out = []
     for i, ch in enumerate(chans):
-        delay = int(ch["delay_increment"])
-        if i == 0:
-            if delay < fixed:
-                raise ValueError(f"Common delay of {delay} samples (windmill {ch['windmill']!r}) is "
-                                 f"shorter than {parts}")
-            delay -= fixed
-        maxd = contract.max_segment_delay(i)
-        if not 0 <= delay <= maxd:
-            what = "Common delay" if i == 0 else "Delay increment"
-            raise ValueError(f"{what} of channel {i} ({ch['windmill']!r}) must be in [0, {maxd}] "
-                             f"samples after subtracting the latency, not {delay}")
+        delay = delays[i] - fixed - common
+        if delay > contract.max_tap:
+            raise ValueError(
+                f"Windmill {ch['windmill']!r} (channel {i}) lies {delay} samples beyond the common delay "
+                f"of {common} samples (after subtracting the latency), but the delay window reaches "
+                f"{contract.max_tap}: the farm is {max(delays) - delays[near]} samples deep"
+                + ("" if common < contract.max_delay else
+                   f" and its nearest windmill beyond the longest common delay ({contract.max_delay})"))
         length = int(ch["length"])
         if not contract.min_stream_length <= length <= contract.pool_words:
             raise ValueError(f"Stream length of channel {i} ({ch['windmill']!r}) must be in "
@@ -108,7 +114,7 @@ def _channel_values(manifest, contract, target="block"):
                              f"[0, {(1 << GAIN_WIDTH) - 1}], not {gain}")
         out.append(dict(name=ch["windmill"], enable=int(ch.get("enable", 1)), length=length,
                         inc=inc, gain=gain, delay=delay))
-    return out
+    return common, out
 
 
 def _load_streams(manifest, stream_dir, streams, values):
@@ -159,21 +165,21 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     """Register writes ``[(addr, value), ...]`` that load a manifest into a running block.
 
     The windmill of list position ``l`` goes to channel ``l``; the rest are
-    disabled. Channel 0's DELAY is the manifest's common delay minus the fixed
-    latency of the path the block sits in, so that the echo lands at
-    ``delay_samples``; channels 1.. get their increments. ``target`` says
-    which path:
+    disabled. COMMON_DELAY is the nearest windmill's ``delay_samples`` minus
+    the fixed latency of the path the block sits in (at most ``max_delay``),
+    and each channel's DELAY (tap) the rest of its ``delay_samples``, so that
+    every echo lands at its ``delay_samples``. ``target`` says which path:
 
     * ``"board"``: the board top (``rast.gateware.top.BoardTop``), loaded by
-      ``rast load`` or baked in for power-up. ``DELAY[0] = delay_samples - L
-      - BOARD_INPUT_LATENCY - BOARD_OUTPUT_LATENCY - adc - dac``, with the
+      ``rast load`` or baked in for power-up. ``COMMON_DELAY + DELAY[l] =
+      delay_samples - L - BOARD_INPUT_LATENCY - BOARD_OUTPUT_LATENCY - adc - dac``, with the
       converters' latencies from the manifest's ``calibration``
       (``adc_latency_samples``, ``dac_latency_samples``; 0 when a manifest has
       none): the echo leaves the DAC ``delay_samples`` after the pulse reached
       the ADC.
     * ``"block"`` (the default): the bare replay block, as the cosimulations
-      drive it (``rast.sim.e2e``, ``rast.sim.scenario``): ``DELAY[0] =
-      delay_samples - L``, the echo at ``delay_samples`` counted at the
+      drive it (``rast.sim.e2e``, ``rast.sim.scenario``): ``COMMON_DELAY +
+      DELAY[l] = delay_samples - L``, the echo at ``delay_samples`` counted at the
       block's own ports; the board's stages and the converters are not in
       that path and are not subtracted.
 
@@ -188,7 +194,7 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     """
     contract = contract or ReplayContract(channels=len(manifest["registers"]["channels"]))
     rmap = register_map(contract)
-    values = _channel_values(manifest, contract, target)
+    common, values = _channel_values(manifest, contract, target)
     words = _load_streams(manifest, stream_dir, streams, values)
     w = []
     a = rmap.addr
@@ -211,20 +217,22 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
         w.append((a("CTRL", ch), 0))
         w.append((a("GAIN", ch), 0))
         w.append((a("DELAY", ch), 0))
+    w.append((a("COMMON_DELAY"), common))
     w.append((a("APPLY"), 1))
     return w
 
 
 def manifest_channel_inits(manifest: dict, contract: ReplayContract, stream_dir=None,
-                           streams=None, *, target: str = "block") -> list:
-    """Power-up contents (:class:`ChannelInit` per channel) from a manifest, for
-    a bitstream that replays it without a host; ``target`` as for
+                           streams=None, *, target: str = "block") -> tuple[list, int]:
+    """Power-up contents from a manifest, for a bitstream that replays it
+    without a host: ``(inits, common_delay)``, a :class:`ChannelInit` per
+    channel and the COMMON_DELAY; ``target`` as for
     :func:`manifest_to_register_writes` (``"board"`` for a board top). The
     streams sit in the pool as :func:`pool_layout` places them."""
-    values = _channel_values(manifest, contract, target)
+    common, values = _channel_values(manifest, contract, target)
     words = _load_streams(manifest, stream_dir, streams, values)
     if words is None:
         raise ValueError("Channel initialisation needs the streams: give stream_dir or streams")
     bases = pool_layout([len(x) for x in words], contract.pool_words)
     return [ChannelInit(tuple(words[i]), v["inc"], v["gain"], v["delay"], bool(v["enable"]), bases[i])
-            for i, v in enumerate(values)]
+            for i, v in enumerate(values)], common

@@ -18,7 +18,8 @@ Access kinds of a field:
 
 from dataclasses import dataclass, field
 
-from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS
+from .fixedpoint import (ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS,
+                         SEGMENT_LATENCY, sum_latency)
 from .powerup import ChannelInit
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
@@ -95,11 +96,12 @@ def _bits(n: int) -> int:
     return max(1, int(n).bit_length())
 
 
-def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
+def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) -> RegisterMap:
     """The register map of a replay block built with ``contract``.
 
     ``inits`` (a list of :class:`ChannelInit`, one per channel or fewer) sets
-    the reset values of the per-channel registers.
+    the reset values of the per-channel registers, ``common_delay`` that of
+    COMMON_DELAY (clamped to ``max_delay``).
     """
     c = contract
     inits = list(inits or [])
@@ -117,13 +119,19 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
                  f"elaboration parameters (reads {config:#x} here)"),
         Register("LATENCY", 0x02, (Field("latency", 0, 16, "ro", c.latency,
                                          "fixed latency L in samples"),),
-                 "echo of channel l appears L + sum(DELAY[0..l]) samples after its input"),
+                 "echo of channel l appears L + COMMON_DELAY + DELAY[l] samples after its input"),
         Register("STATUS", 0x03, (Field("overflow", 0, 1, "rc", 0,
                                         "an output sample saturated since the last read"),),
                  "sticky status, cleared by reading"),
         Register("APPLY", 0x04, (Field("delays", 0, 1, "wo", 0,
-                                       "write 1: all channels' DELAY take effect in the same sample"),),
+                                       "write 1: COMMON_DELAY and all channels' DELAY take effect in the same sample"),),
                  "commands"),
+        Register("COMMON_DELAY", 0x05, (Field("delay", 0, _bits(c.max_delay), "rw",
+                                              min(max(int(common_delay), 0), c.max_delay),
+                                              "delay of the line all channels share, samples "
+                                              f"(0..{c.max_delay}), takes effect on APPLY",
+                                              clamp=(0, c.max_delay)),),
+                 "common delay: up to the nearest turbine"),
         Register("STREAM_ADDR", 0x06, (Field("addr", 0, c.pool_address_width, "rw", 0,
                                              "pool word address; +1 (mod pool) after each STREAM_DATA"),),
                  "stream write path: address"),
@@ -135,10 +143,10 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
         Register("POOL_WORDS", 0x08, (Field("words", 0, 32, "ro", c.pool_words,
                                             "words of the stream pool"),),
                  "capability"),
-        Register("MAX_DELAY", 0x09, (Field("max", 0, 32, "ro", c.max_delay, "largest DELAY of channel 0"),),
+        Register("MAX_DELAY", 0x09, (Field("max", 0, 32, "ro", c.max_delay, "largest COMMON_DELAY"),),
                  "capability"),
-        Register("MAX_INCREMENT", 0x0A, (Field("max", 0, 32, "ro", c.max_increment,
-                                               "largest DELAY of channels 1..N-1"),),
+        Register("MAX_TAP", 0x0A, (Field("max", 0, 32, "ro", c.max_tap,
+                                         "largest DELAY (tap) of a channel"),),
                  "capability"),
         Register("SAMPLE_RATE", 0x0B, (Field("hz", 0, 32, "ro", c.sample_rate_hz,
                                              "RTS sample rate the block was built for, Hz "
@@ -148,11 +156,11 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
     for ch in range(c.channels):
         base = CHANNEL_BASE + CHANNEL_STRIDE * ch
         ini = inits[ch]
-        maxd = c.max_segment_delay(ch)
+        maxd = c.max_tap
         regs += [
             Register("CTRL", base + 0, (
                 Field("enable", 0, 1, "rw", int(ini.enable), "channel contributes to the sum; "
-                      "written before input k, from output k + 3(N - l)"),
+                      f"written before input k, from output k + {2 + sum_latency(c.channels)}"),
                 Field("swap", 1, 1, "wo", 0,
                       "write 1: switch to BASE/LENGTH/PHASE_INC at the next period boundary (at once "
                       "if the write leaves the channel disabled); reads 1 while pending"),
@@ -167,17 +175,18 @@ def register_map(contract: ReplayContract, inits=None) -> RegisterMap:
                                                    min(ini.phase_increment & ((1 << PHASE_FRAC_BITS) - 1), c.max_phase_increment),
                                                    "stream words per sample * 2**32 for the next switch "
                                                    f"(0..{c.max_phase_increment}); output n plays the "
-                                                   "phase of input step n - L + 3l + 3 - SL",
+                                                   f"phase of input step n - L + {2 * SEGMENT_LATENCY} - SL",
                                                    clamp=(0, c.max_phase_increment)),),
                      "latched into the stream at the switch", ch),
             Register("GAIN", base + 3, (Field("gain", 0, GAIN_WIDTH, "rw", ini.gain,
                                               "gain, unsigned, 16 fractional bits; written before "
-                                              "input k, from output k + 3(N - l)"),),
-                     "written before input k: from output k + 3(N - l) (docs/fixed_point.md, Alignment)", ch),
+                                              f"input k, from output k + {2 + sum_latency(c.channels)}"),),
+                     f"written before input k: from output k + {2 + sum_latency(c.channels)} "
+                     "(docs/fixed_point.md, Alignment)", ch),
             Register("DELAY", base + 4, (Field("delay", 0, _bits(maxd), "rw", min(ini.delay, maxd),
-                                               "delay of this segment in samples (0..max), "
+                                               f"tap of this channel in the window, samples (0..{maxd}), "
                                                "takes effect on APPLY", clamp=(0, maxd)),),
-                     "common delay (channel 0) or increment over the previous channel", ch),
+                     "tap: delay beyond COMMON_DELAY", ch),
             Register("BASE", base + 5, (Field("base", 0, c.pool_address_width, "rw",
                                               ini.base & ((1 << c.pool_address_width) - 1),
                                               "pool address of word 0 of the stream for the next "

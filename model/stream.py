@@ -182,18 +182,16 @@ class FarmStreams:
     def smallest_contract(self, channels: int | None = None) -> fx.ReplayContract:
         """The smallest replay block that holds these streams (all of them in
         the pool at once; delay RAM depths are powers of two), at the farm's
-        sample rate and interpolation."""
-        def pow2(n):
-            return 1 << max(1, (max(1, n) - 1).bit_length())
+        sample rate and interpolation: the common delay reaches the nearest
+        windmill, the window the farm's depth."""
         ch = self.manifest()["registers"]["channels"]
-        incs = [c["delay_increment"] for c in ch[1:]] or [0]
-        interp = self.farm.interpolation
+        delays = [c["delay_samples"] for c in ch]
         return fx.ReplayContract(
             channels=channels or len(ch),
             pool_words=fx.pool_words_for(sum(c["length"] for c in ch)),
-            max_delay=pow2(ch[0]["delay_increment"] + 2) - 2,
-            max_increment=max(2, pow2(max(incs) + 2) - 2), interpolation=interp,
-            sample_rate_hz=round(self.farm.sample_rate_hz))
+            max_delay=fx.delay_depth(min(delays)) - 2,
+            max_tap=max(2, fx.delay_depth(max(delays) - min(delays)) - 2),
+            interpolation=self.farm.interpolation, sample_rate_hz=round(self.farm.sample_rate_hz))
 
     def manifest(self, file_names: dict[str, dict[str, str]] | None = None) -> dict:
         """The farm's manifest: per windmill its stream, delay and gain, and register values."""
@@ -227,7 +225,6 @@ class FarmStreams:
                                        "tap": w.range_cell.index, "taps": w.range_cell.count}
             windmills.append(entry)
         channels = []
-        previous_delay = 0
         for s in self.streams:
             channels.append({
                 "windmill": s.windmill.name,
@@ -235,11 +232,10 @@ class FarmStreams:
                 "length": s.plan.length,
                 "phase_increment": s.plan.phase_increment,
                 "gain": s.gain_word,
-                "delay_increment": s.delay_samples - previous_delay,
+                "delay_samples": s.delay_samples,
             })
-            previous_delay = s.delay_samples
         return {
-            "format": "rast-manifest/1",
+            "format": "rast-manifest/2",
             "sample_rate_hz": farm.sample_rate_hz,
             "radar_frequency_hz": farm.radar.frequency_mhz * 1e6,
             "radar": {"prf_hz": farm.radar.prf_hz, "pulse_width_us": farm.radar.pulse_width_us,
@@ -353,9 +349,7 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
     taps = []
     for s in streams:
         if not taps or taps[-1]["delay_samples"] != s.delay_samples:
-            previous = taps[-1]["delay_samples"] if taps else 0
-            taps.append({"delay_samples": s.delay_samples,
-                         "increment_samples": s.delay_samples - previous, "windmills": []})
+            taps.append({"delay_samples": s.delay_samples, "windmills": []})
         taps[-1]["windmills"].append(s.windmill.name)
         s.tap = len(taps) - 1
     if problems:

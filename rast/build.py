@@ -49,7 +49,7 @@ def run(args) -> int:
     cfg = BuildConfig(board=board, device=args.device, package=args.package, speed=args.speed,
                       pinmap=args.pinmap, channels=args.channels, clock_mhz=args.clock_mhz,
                       baud=args.baud, pool_words=args.pool_words, max_delay=args.max_delay,
-                      max_increment=args.max_increment, interpolation=args.interpolation,
+                      max_tap=args.max_tap, interpolation=args.interpolation,
                       cmult_form=args.cmult_form, seed=args.seed)
     try:
         check(cfg)          # everything that can be checked before a tool runs
@@ -70,7 +70,7 @@ def run(args) -> int:
         print(f"{k:>10}: {r[k]['used']} / {r[k]['available']}")
     m = rep["memory"]
     print(f"stream pool: {m['pool_words']} words; delay samples: "
-          f"{m['delay_samples']['channel_0']} common, {m['delay_samples']['channels_1_to_n']} per step")
+          f"{m['delay_samples']['common']} common, then a window of {m['delay_samples']['tap']} per channel")
     print(f"wrote {args.out}/{rep['bitstream']} and {args.out}/report.json")
     cp = t["critical_path"]
     if not t["met"]:

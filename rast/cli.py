@@ -102,8 +102,8 @@ def cmd_stream(args) -> int:
         print(f"no replay build holds these streams: {error}")
     else:
         print(f"needs a build with at least {need.channels} channel(s), a stream pool of "
-              f"{need.pool_words} words, common delay {need.max_delay}, delay increment "
-              f"{need.max_increment}, {need.interpolation} interpolation, {farm.sample_rate_mhz:g} MHz"
+              f"{need.pool_words} words, common delay {need.max_delay}, delay window "
+              f"{need.max_tap}, {need.interpolation} interpolation, {farm.sample_rate_mhz:g} MHz"
               + (f"; sized for {args.build}" if contract is not None else ""))
     print(f"wrote {len(written)} files to {Path(args.out).resolve()}:")
     for name in sorted(written):

@@ -138,7 +138,7 @@ def run(args) -> int:
     make_sources = replay_netlist_sources if args.netlist else top_sources
     sources, top = make_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
                                 interpolation=c.interpolation,
-                                max_increment=c.max_increment)
+                                max_tap=c.max_tap)
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
                      label=f"cosim{c.channels}{'-netlist' if args.netlist else ''}", bulk=True)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "

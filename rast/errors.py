@@ -68,7 +68,7 @@ def read_manifest(path) -> tuple[dict, Path]:
     ``(manifest, file)``; the file's folder holds the stream files. Checks what
     the loaders read (every windmill's ``name``, ``hex_file`` and ``length``;
     every channel's ``windmill``, naming a listed windmill, and ``length``,
-    ``phase_increment``, ``gain`` and ``delay_increment`` as integers); whether
+    ``phase_increment``, ``gain`` and ``delay_samples`` as integers); whether
     the values fit a replay block is left to the block's own checks.
     """
     path = Path(path)
@@ -95,7 +95,10 @@ def read_manifest(path) -> tuple[dict, Path]:
         _need(isinstance(ch, dict), at, "is not an object")
         _need(isinstance(ch.get("windmill"), str) and ch["windmill"] in names, at,
               f"names windmill {ch.get('windmill')!r}, which 'windmills' does not list")
-        for key in ("length", "phase_increment", "gain", "delay_increment"):
+        _need("delay_samples" in ch or "delay_increment" not in ch, at,
+              "has a 'delay_increment' (a manifest of chained delays, from an older rast): "
+              "run 'rast stream' again")
+        for key in ("length", "phase_increment", "gain", "delay_samples"):
             _need(_is_int(ch.get(key)), at, f"lacks the integer '{key}'")
         _need(ch.get("enable", 1) in (0, 1) and not isinstance(ch.get("enable"), (bool, float)), at,
               "'enable' must be 0 or 1")

@@ -39,7 +39,7 @@ def read_contract(bridge: HostBridge) -> ReplayContract:
     cfg = bridge.read(a("CONFIG"))
     c = ReplayContract(channels=cfg & 0xFF, pool_words=bridge.read(a("POOL_WORDS")),
                        max_delay=bridge.read(a("MAX_DELAY")),
-                       max_increment=bridge.read(a("MAX_INCREMENT")),
+                       max_tap=bridge.read(a("MAX_TAP")),
                        interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],
                        cmult_form="3mult" if cfg >> 10 & 1 else "4mult",
                        sample_rate_hz=bridge.read(a("SAMPLE_RATE")))
@@ -84,7 +84,7 @@ def plan_writes(manifest, contract, words=None):
     except ValueError as error:
         raise UserError(f"the manifest does not fit the bitstream's replay block ({contract.channels} "
                         f"channel(s), pool words {contract.pool_words}, maximum delay "
-                        f"{contract.max_delay}, maximum increment {contract.max_increment}, latency "
+                        f"{contract.max_delay}, maximum tap {contract.max_tap}, latency "
                         f"{contract.latency}): {error}") from None
 
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 __all__ = ["REPLAY_OPTIONS", "add_replay_arguments", "replay_kwargs"]
 
 #: The :class:`rast.model.fixedpoint.ReplayContract` parameters the options set (but ``channels``).
-REPLAY_OPTIONS = ("pool_words", "max_delay", "max_increment", "interpolation", "cmult_form")
+REPLAY_OPTIONS = ("pool_words", "max_delay", "max_tap", "interpolation", "cmult_form")
 
 
 def add_replay_arguments(parser, *, channels: int) -> None:
     """Add ``--channels`` (default ``channels``), ``--pool-words``, ``--max-delay``,
-    ``--max-increment``, ``--interpolation`` and ``--cmult-form`` to ``parser`` (a
+    ``--max-tap``, ``--interpolation`` and ``--cmult-form`` to ``parser`` (a
     parser or an argument group); the defaults are :class:`ReplayContract`'s."""
     from rast.model.fixedpoint import ReplayContract
     d = ReplayContract()
@@ -20,8 +20,8 @@ def add_replay_arguments(parser, *, channels: int) -> None:
                         help=f"words of the stream pool shared by all channels (default {d.pool_words})")
     parser.add_argument("--max-delay", type=int, default=d.max_delay,
                         help=f"largest common delay, samples (default {d.max_delay})")
-    parser.add_argument("--max-increment", type=int, default=d.max_increment,
-                        help=f"largest delay increment of channels 1.., samples (default {d.max_increment})")
+    parser.add_argument("--max-tap", type=int, default=d.max_tap,
+                        help=f"largest tap (DELAY) of a channel beyond the common delay, samples (default {d.max_tap})")
     parser.add_argument("--interpolation", choices=("fir", "linear", "hold"), default=d.interpolation,
                         help="stream interpolation: fir (default, images below -70 dB), linear, "
                              "or hold (exact for one word per sample)")

@@ -44,11 +44,12 @@ def run(args):
         manifest, manifest_file = read_manifest(args.manifest)
         streams = manifest_streams(manifest, manifest_file.parent)
         try:
-            kwargs["init"] = manifest_channel_inits(manifest, contract, streams=streams)
+            kwargs["init"], kwargs["init_common_delay"] = manifest_channel_inits(manifest, contract,
+                                                                                  streams=streams)
         except ValueError as error:
             raise UserError(f"the manifest {manifest_file} does not fit a block of {contract.channels} "
                             f"channel(s), pool words {contract.pool_words}, maximum delay "
-                            f"{contract.max_delay}, maximum increment {contract.max_increment}: "
+                            f"{contract.max_delay}, maximum tap {contract.max_tap}: "
                             f"{error}") from None
         extra.append(f"initial contents from {manifest_file.name}: "
                      + ", ".join(ch["windmill"] for ch in manifest["registers"]["channels"]))

@@ -89,7 +89,7 @@ def prepare(config, seconds: float = 1.0, *, channels: int | None = None, amplit
     sc = Scenario(f"e2e-{Path(config).stem}-{seconds:g}s", c, job, farm.sample_rate_hz)
     return E2E(str(config), farm, fs, sc, pulse, gate_list,
                info=dict(channels=c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
-                         max_increment=c.max_increment, latency=c.latency, pulses=pulse.n_pulses,
+                         max_tap=c.max_tap, latency=c.latency, pulses=pulse.n_pulses,
                          samples=job.n_in, samples_per_pri=pulse.samples_per_pri, active=active))
 
 

@@ -202,7 +202,7 @@ def _random_inc(rng):
 
 
 #: One contract for every random top test, so a channel count is one build.
-TEST_CONTRACT = dict(pool_words=4096, max_delay=200, max_increment=40)
+TEST_CONTRACT = dict(pool_words=4096, max_delay=200, max_tap=40)
 
 
 def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: int = 40,
@@ -232,8 +232,8 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
                                                _random_inc(rng), base,
                                                enable=full or rng.random() < 0.85, force=True)]
         regs += [(0, a("GAIN", ch), gain),
-                 (0, a("DELAY", ch), int(rng.integers(0, c.max_segment_delay(ch) + 1)))]
-    regs.append((0, a("APPLY"), 1))
+                 (0, a("DELAY", ch), int(rng.integers(0, c.max_tap + 1)))]
+    regs += [(0, a("COMMON_DELAY"), int(rng.integers(0, c.max_delay + 1))), (0, a("APPLY"), 1)]
     n_body = pulses * pri
     at_points = np.sort(rng.integers(1, n_body, size=mid_run_writes))
     for at in at_points:
@@ -246,7 +246,9 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
             regs.append((at, a("CTRL", ch), int(rng.integers(0, 2))))          # enable toggle
         elif what == 2:
             for k in range(channels):
-                regs.append((at, a("DELAY", k), int(rng.integers(0, c.max_segment_delay(k) + 1))))
+                regs.append((at, a("DELAY", k), int(rng.integers(0, c.max_tap + 1))))
+            if rng.random() < 0.5:
+                regs.append((at, a("COMMON_DELAY"), int(rng.integers(0, c.max_delay + 1))))
             regs.append((at, a("APPLY"), 1))
         elif what == 3 or what == 4:                                            # stream reload
             length = int(rng.integers(1, 1024)) if rng.random() < 0.3 else int(rng.integers(1, 64))
@@ -265,7 +267,7 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
                       noise_rms=0.3 if full else 0.01, seed=seed, n_pulses=pulses)
     train = generate(cfg)
     job = BulkJob(src=train.words(), active=pri, pri=pri, pulses=pulses,
-                  flush=c.latency + c.max_delay + channels * c.max_increment + 8,
+                  flush=c.latency + c.max_delay + c.max_tap + 8,
                   regs=regs, gap_thresh=gap_thresh, gap_max=5, stall_thresh=stall_thresh,
                   seed=seed + 1)
     return Scenario(f"{kind}-{channels}ch-seed{seed}", c, job, 20e6)
@@ -286,9 +288,9 @@ def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int
     def farm(n_wm):
         base = (c.latency + int(rng.integers(0, 80))) * sample_m / 1e3
         ranges, r = [], base
-        for _ in range(n_wm):
+        for _ in range(n_wm):      # the farm's depth within the delay window
             ranges.append(round(r, 6))
-            r += int(rng.integers(0, c.max_increment + 1)) * sample_m / 1e3
+            r += int(rng.integers(0, c.max_tap // max(1, n_wm - 1) + 1)) * sample_m / 1e3
         mills = []
         for k, rk in enumerate(ranges):
             nb = int(rng.integers(1, 4))
@@ -327,6 +329,6 @@ def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int
     active = cfg.pulse_samples
     train = generate(cfg, active_samples=active)
     job = BulkJob(src=train.words(), active=active, pri=pri, pulses=pulses,
-                  flush=c.latency + c.max_delay + channels * c.max_increment + 8, regs=regs,
+                  flush=c.latency + c.max_delay + c.max_tap + 8, regs=regs,
                   gap_thresh=gap_thresh, gap_max=3, stall_thresh=stall_thresh, seed=seed + 7)
     return Scenario(f"farm-{channels}ch-seed{seed}", c, job, fs_mhz * 1e6)

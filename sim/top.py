@@ -25,13 +25,13 @@ def port_map(addr_width: int) -> PortMap:
 
 
 @lru_cache(maxsize=None)
-def top_sources(channels: int, *, pool_words: int, max_delay: int, max_increment: int,
+def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
                 interpolation: str = "fir", cmult_form: str = "4mult", src_aw: int = 22):
     """``({file: text}, toplevel)`` of the replay top inside ``rast_bulk``."""
     from rast.gateware.verilog import verilog_text
     from rast.model.fixedpoint import ReplayContract
     from rast.model.regmap import register_map
-    kwargs = dict(pool_words=pool_words, max_delay=max_delay, max_increment=max_increment,
+    kwargs = dict(pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
                   interpolation=interpolation, cmult_form=cmult_form)
     text = _cached_verilog(channels, kwargs, lambda: verilog_text(channels, name=TOP_MODULE, **kwargs))
     aw = register_map(ReplayContract(channels=channels, **kwargs)).addr_width

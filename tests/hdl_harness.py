@@ -81,9 +81,9 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
     return np.array(out_i, dtype=np.int64), np.array(out_q, dtype=np.int64), done
 
 
-def model_replay(contract, inits, xi, xq, done_ops):
+def model_replay(contract, inits, xi, xq, done_ops, common_delay=0):
     """Replay inputs and the recorded accesses through the model."""
-    model = ReplayModel(contract, inits)
+    model = ReplayModel(contract, inits, common_delay)
     yi, yq, reads = [], [], []
     pos = 0
     for k, kind, addr, value in done_ops:

@@ -54,8 +54,8 @@ def write_manifest(folder, lengths=(3,), delays=(100,)):
         (folder / f"w{k}.hex").write_text("".join(f"{int(w):08x}\n" for w in words))
         wms.append({"name": f"w{k}", "hex_file": f"w{k}.hex", "length": n})
         chans.append({"windmill": f"w{k}", "enable": 1, "length": n, "phase_increment": 1 << 31,
-                      "gain": 1 << 16, "delay_increment": d})
-    manifest = {"format": "rast-manifest/1", "windmills": wms, "registers": {"channels": chans}}
+                      "gain": 1 << 16, "delay_samples": d})
+    manifest = {"format": "rast-manifest/2", "windmills": wms, "registers": {"channels": chans}}
     (folder / "manifest.json").write_text(json.dumps(manifest))
     return folder / "manifest.json"
 
@@ -149,7 +149,7 @@ def test_preview_missing_config(tmp_path, capsys):
 # -------------------------------------------------------------------- verilog
 
 VERILOG = ["verilog", "--channels", "1", "--pool-words", "16", "--max-delay", "126",
-           "--max-increment", "2"]
+           "--max-tap", "2"]
 
 
 def verilog_error(capsys, tmp_path, extra, *needles):
@@ -214,9 +214,34 @@ def test_verilog_stream_file_wrong_length(tmp_path, capsys):
 
 
 def test_verilog_manifest_does_not_fit(tmp_path, capsys):
-    path = write_manifest(tmp_path / "m", lengths=(3, 4), delays=(100, 2))
+    path = write_manifest(tmp_path / "m", lengths=(3, 4), delays=(100, 102))
     verilog_error(capsys, tmp_path, ["--manifest", path], "does not fit a block of 1 channel(s)",
                   "2 windmills")
+
+
+def test_verilog_manifest_deeper_than_the_window(tmp_path, capsys):
+    verilog = [v if v != "1" else "2" for v in VERILOG] + ["--interpolation", "hold"]   # 2 channels, taps up to 2
+    path = write_manifest(tmp_path / "m", lengths=(8, 8), delays=(100, 103))
+    m = json.loads(path.read_text())
+    for ch in m["registers"]["channels"]:
+        ch["phase_increment"] = 1 << 20
+    path.write_text(json.dumps(m))
+    out = tmp_path / "v" / "top.v"
+    assert_user_error(*rast(verilog + ["--manifest", path, "-o", out], capsys), "verilog",
+                      "Windmill 'w1' (channel 1) lies 3 samples beyond the common delay",
+                      "the delay window reaches 2: the farm is 3 samples deep")
+    assert not out.parent.exists()
+
+
+def test_manifest_of_chained_delays_is_refused(tmp_path, capsys):
+    path = write_manifest(tmp_path / "m")
+    m = json.loads(path.read_text())
+    ch = m["registers"]["channels"][0]
+    ch["delay_increment"] = ch.pop("delay_samples")
+    path.write_text(json.dumps(m))
+    verilog_error(capsys, tmp_path, ["--manifest", path], "registers.channels[0]",
+                  "'delay_increment' (a manifest of chained delays, from an older rast)",
+                  "run 'rast stream' again")
 
 
 def test_verilog_manifest_stream_longer_than_the_ram(tmp_path, capsys):
@@ -256,9 +281,9 @@ def no_build(monkeypatch):
 
 
 @pytest.mark.parametrize("args, needles", [
-    (["--channels", "16"], ["16 channels", "160 MULT18X18D", "the LFE5U-85F has 156"]),
+    (["--channels", "16", "--pool-words", "16384"], ["16 channels", "160 MULT18X18D", "the LFE5U-85F has 156"]),
     (["--pool-words", "98304"], ["98304-word stream pool", "DP16KD block RAMs", "the LFE5U-85F has 208"]),
-    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 146 DP16KD", "the LFE5U-25F has 56"]),
+    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 164 DP16KD", "the LFE5U-25F has 56"]),
     (["--clock-mhz", "1000"], ["PLL output frequency must be in", "not 1000.0"]),
     (["--clock-mhz", "0"], ["Clock must be a positive number of MHz"]),
     (["--baud", "50000000"], ["Baud rate 50000000 is too fast"]),
@@ -359,10 +384,10 @@ def test_load_manifest_that_does_not_fit_writes_nothing(tmp_path, capsys, monkey
         def read(self, n): return b""
         def reset_input_buffer(self): pass
 
-    bitstream = ReplayContract(channels=1, pool_words=64, max_delay=60, max_increment=14)
+    bitstream = ReplayContract(channels=1, pool_words=64, max_delay=60, max_tap=14)
     monkeypatch.setattr(serial, "Serial", Port)
     monkeypatch.setattr(rl, "read_contract", lambda bridge: bitstream)
-    write_manifest(tmp_path / "m", lengths=(3, 4), delays=(100, 2))
+    write_manifest(tmp_path / "m", lengths=(3, 4), delays=(100, 102))
     assert_user_error(*rast(["load", tmp_path / "m", "--port", "fake"], capsys), "load",
                       "does not fit the bitstream's replay block (1 channel(s), pool words 64",
                       "2 windmills")

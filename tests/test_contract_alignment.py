@@ -24,8 +24,10 @@ def sat(v, bits=16):
 class DocReader:
     """docs/fixed_point.md, read literally."""
 
-    def __init__(self, interpolation, inits, latency, writes):
+    def __init__(self, interpolation, inits, latency, writes, common):
         self.interp, self.inits, self.L, self.N = interpolation, inits, latency, len(inits)
+        self.common = common
+        self.S = max(1, (self.N - 1).bit_length())     # adder-tree levels
         self.writes = writes          # {channel: [(input k, new gain)]}, in order
         self.c = fir_coefficients()
 
@@ -71,13 +73,12 @@ class DocReader:
     def output(self, xi, xq, n):
         yi = yq = 0
         for l in range(self.N):
-            D = sum(self.inits[m].delay for m in range(l + 1))
-            k = n - self.L - D
+            k = n - self.L - self.common - self.inits[l].delay
             x = (int(xi[k]), int(xq[k])) if k >= 0 else (0, 0)
             SL = 6 if self.interp == "linear" else 3
-            mi, mq = self.word(l, n - self.L + 3 * l + 3 - SL)
+            mi, mq = self.word(l, n - self.L + 6 - SL)
             pi, pq = rhu(x[0] * mi - x[1] * mq, 15), rhu(x[0] * mq + x[1] * mi, 15)
-            g = self.gain(l, n - 3 * (self.N - l))
+            g = self.gain(l, n - 2 - self.S)
             yi += rhu(pi * g, 16)
             yq += rhu(pq * g, 16)
         return sat(yi), sat(yq)
@@ -94,30 +95,33 @@ def test_gateware_matches_a_reading_of_the_docs(interpolation):
         inc = int(rng.integers(1 << 22, 5_592_405)) if interpolation == "fir" else int(rng.integers(1 << 29, 1 << 31))  # within the clamps for N = 2
         inits.append(ChannelInit(tuple(int(w) for w in words), inc, int(rng.integers(1 << 15, 1 << 17)),
                                  int(rng.integers(0, 5)), True, base=depth * l))
-    dut = WindFarmReplay(N, init=inits, pool_words=N * depth, max_delay=8, max_increment=4,
-                         interpolation=interpolation)
+    common = int(rng.integers(0, 9))
+    dut = WindFarmReplay(N, init=inits, pool_words=N * depth, max_delay=8, max_tap=4,
+                         interpolation=interpolation, init_common_delay=common)
     a = dut.register_map.addr
     T = 700
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     writes = {0: [(350, 70000)], 1: [(400, 12345)]}
     ops = [(k, "w", a("GAIN", l), g) for l, ws in writes.items() for k, g in ws]
     hi, hq, _ = run_replay(dut, xi, xq, ops, valid=(1, 1, 0), hold=True)
-    doc = DocReader(interpolation, inits, dut.latency, writes)
+    doc = DocReader(interpolation, inits, dut.latency, writes, common)
     for n in range(T):
         assert (int(hi[n]), int(hq[n])) == doc.output(xi, xq, n), f"output {n}"
 
 
-def test_gain_write_shows_3_n_minus_l_samples_later():
-    """The finding the docs state: a GAIN write before input k shows from output
-    k + 3(N - l), seen directly (a constant stream and input, hold)."""
-    N = 3
+@pytest.mark.parametrize("N", [3, 5])
+def test_gain_write_shows_2_plus_tree_levels_later(N):
+    """What the docs state: a GAIN write before input k shows from output
+    k + 2 + S (S = max(1, ceil(log2 N)) adder-tree levels) for every channel,
+    seen directly (a constant stream and input, hold)."""
+    S = {3: 2, 5: 3}[N]
     word = int(pack_iq([16384], [0])[0])
     for l in range(N):
         inits = [ChannelInit((word,) * 8, 0, 0, 0, True) for _ in range(N)]
-        dut = WindFarmReplay(N, init=inits, pool_words=16, max_delay=4, max_increment=2,
+        dut = WindFarmReplay(N, init=inits, pool_words=16, max_delay=4, max_tap=2,
                              interpolation="hold")
         R = dut.contract.refill_samples          # muted while the caches fill after reset
         T, k = R + 80, R + 40
         hi, _, _ = run_replay(dut, np.full(T, 16384), np.zeros(T), [(k, "w", dut.register_map.addr("GAIN", l), 1 << 16)],
                               hold=True)
-        assert int(np.nonzero(hi)[0][0]) == k + 3 * (N - l)
+        assert int(np.nonzero(hi)[0][0]) == k + 2 + S

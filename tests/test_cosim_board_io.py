@@ -18,11 +18,12 @@ import pytest
 from rast.model.fixedpoint import (BOARD_LATENCY, BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY,
                                    ReplayContract, pack_iq)
 from rast.model.loadplan import manifest_to_register_writes
+from rast.model.regmap import register_map
 from rast.sim import runner
 from rast.sim.board_io import BUILD_ARGS, board_io_sources
 
 MODULE = "rast.sim.tb_board_io"
-BUILD = dict(channels=2, pool_words=16, max_delay=62, max_increment=6, interpolation="hold")
+BUILD = dict(channels=2, pool_words=16, max_delay=62, max_tap=6, interpolation="hold")
 CLK_HZ = 20e6
 DIVISOR = 4
 DELAY = 40                       # samples: the windmill's delay_samples
@@ -38,7 +39,7 @@ def _manifest(adc=None, dac=None):
         "sample_rate_hz": CLK_HZ, "interpolation": "hold",
         "windmills": [{"name": "w0", "hex_file": "w0.hex", "length": len(words), "delay_samples": DELAY}],
         "registers": {"channels": [{"windmill": "w0", "enable": 1, "length": len(words),
-                                    "phase_increment": 0, "gain": 1 << 16, "delay_increment": DELAY}]},
+                                    "phase_increment": 0, "gain": 1 << 16, "delay_samples": DELAY}]},
     }
     if adc is not None:
         m["calibration"] = {"adc_latency_samples": adc, "dac_latency_samples": dac}
@@ -93,13 +94,14 @@ def test_refuses_a_windmill_inside_the_board_latency():
     contract = CONTRACT
     m, s = _manifest(adc=2, dac=3)
     fixed = contract.latency + BOARD_LATENCY + 5
-    m["registers"]["channels"][0]["delay_increment"] = fixed - 1
-    with pytest.raises(ValueError, match=rf"^Common delay of {fixed - 1} samples \(windmill 'w0'\) is shorter "
+    m["registers"]["channels"][0]["delay_samples"] = fixed - 1
+    with pytest.raises(ValueError, match=rf"^Delay of {fixed - 1} samples \(windmill 'w0'\) is shorter "
                                          rf"than the board's fixed latency of {fixed} samples "
                                          rf"\(replay block L {contract.latency} \+ board input stage 3 "
                                          rf"\+ board output stage 4 \+ ADC 2 \(adc_latency\) \+ DAC 3 "
                                          rf"\(dac_latency\)\)$"):
         manifest_to_register_writes(m, contract, streams=s, target="board")
-    m["registers"]["channels"][0]["delay_increment"] = fixed
+    m["registers"]["channels"][0]["delay_samples"] = fixed
     w = manifest_to_register_writes(m, contract, streams=s, target="board")
-    assert w   # DELAY[0] = 0 is the nearest a board places a windmill
+    # COMMON_DELAY = DELAY = 0 is the nearest a board places a windmill
+    assert dict(w)[register_map(contract).addr("COMMON_DELAY")] == 0

@@ -31,7 +31,7 @@ def run_e2e(simulator, seconds, name, require_peaks=True, noise_rms=0.0):
     c = e.scenario.contract
     sources, top = top_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
                                interpolation=c.interpolation,
-                               max_increment=c.max_increment)
+                               max_tap=c.max_tap)
     run_dir = cocotb_run(sources, top, "rast.sim.tb_e2e", "e2e", simulator=simulator, bulk=True,
                          label=f"e2e{c.channels}", name=name,
                          tb_params=dict(config=str(CONFIG), seconds=seconds, require_peaks=require_peaks,

@@ -17,7 +17,7 @@ from rast.sim.pytest_support import cocotb_run
 
 MODULE = "rast.sim.tb_top"
 _D = BuildConfig()
-DEFAULT_CONTRACT = dict(pool_words=_D.pool_words, max_delay=_D.max_delay, max_increment=_D.max_increment)
+DEFAULT_CONTRACT = dict(pool_words=_D.pool_words, max_delay=_D.max_delay, max_tap=_D.max_tap)
 
 
 def _run(kind, seed, *, channels=1, netlist_edit=None, name=""):

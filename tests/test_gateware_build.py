@@ -50,7 +50,7 @@ def test_plain_device_needs_pinmap_for_other_packages():
 def test_elaborates_for_ecp5(tmp_path, board, device):
     """Platform files (RTLIL, LPF) are produced; the sample interface is DDR on the header."""
     cfg = BuildConfig(board=board, device=device, package="BG381", speed="8", channels=2,
-                      pool_words=256, max_delay=254, max_increment=62)
+                      pool_words=256, max_delay=254, max_tap=62)
     rep = build(cfg, tmp_path, quiet=True, run_tools=False)
     il = (tmp_path / "rast_top.il").read_text()
     lpf = (tmp_path / "rast_top.lpf").read_text()
@@ -97,7 +97,7 @@ def test_default_bitstream(tmp_path):
     assert 0 < r["luts"]["used"] < r["luts"]["available"]
     assert 0 < r["ffs"]["used"] < r["ffs"]["available"]
     assert rep["memory"]["pool_words"] == 65536
-    assert rep["memory"]["delay_samples"] == {"channel_0": 4094, "channels_1_to_n": 1022}
+    assert rep["memory"]["delay_samples"] == {"common": 8190, "tap": 2046}
     assert "clock" in proc.stdout and "met" in proc.stdout
 
 

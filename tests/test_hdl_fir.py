@@ -14,7 +14,7 @@ from rast.model.powerup import ChannelInit
 
 from hdl_harness import run_replay, model_replay, assert_same
 
-KW = dict(pool_words=64, max_delay=12, max_increment=4, interpolation="fir")
+KW = dict(pool_words=64, max_delay=12, max_tap=4, interpolation="fir")
 
 
 def _inits(rng, n, depth=32):

@@ -14,7 +14,7 @@ from rast.model.powerup import ChannelInit
 
 def _random_session(seed, lookback=None):
     rng = np.random.default_rng(seed)
-    c = ReplayContract(channels=3, pool_words=32, max_delay=30, max_increment=9,
+    c = ReplayContract(channels=3, pool_words=32, max_delay=30, max_tap=9,
                        interpolation=("hold", "linear", "fir")[seed % 3])
     inits = [ChannelInit(tuple(int(w) for w in pack_iq(rng.integers(-32768, 32768, 5),
                                                        rng.integers(-32768, 32768, 5))),

@@ -16,7 +16,7 @@ from rast.model.powerup import ChannelInit
 from hdl_harness import run_replay, model_replay, assert_same, assert_reads
 
 # Hold: the tests below check exact words and echo positions (FIR: test_hdl_fir.py).
-KW = dict(pool_words=256, max_delay=20, max_increment=6, interpolation="hold")
+KW = dict(pool_words=256, max_delay=20, max_tap=6, interpolation="hold")
 
 
 def rand_inits(rng, n, depth=16, enable=True):
@@ -33,7 +33,7 @@ def rand_inits(rng, n, depth=16, enable=True):
 
 def check(dut, inits, xi, xq, ops=(), valid=(1,), ready=(1,), name="replay", hold=False):
     hi, hq, done = run_replay(dut, xi, xq, ops, valid, ready, hold=hold)
-    mi, mq, reads, model = model_replay(dut.contract, inits, xi, xq, done)
+    mi, mq, reads, model = model_replay(dut.contract, inits, xi, xq, done, dut.init_common_delay)
     assert_same(name, xi, xq, hi, hq, mi, mq)
     assert_reads(name, reads)
     return hi, hq, done, model
@@ -48,8 +48,13 @@ def test_top_parameters():
         WindFarmReplay(1, init=[3])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
-        assert WindFarmReplay(16).latency == 3 * 16 + 6
-        assert WindFarmReplay(4, cmult_form="3mult").latency == 3 * 4 + 7
+        # two delay lines (3 + 3), complex product (3; 4 in the 3-multiplier
+        # form), gain (2), adder tree (log2 N levels, at least one)
+        assert WindFarmReplay(16).latency == 6 + 3 + 2 + 4
+        assert WindFarmReplay(5, cmult_form="3mult").latency == 6 + 4 + 2 + 3
+        assert WindFarmReplay(1).latency == 6 + 3 + 2 + 1
+    with pytest.raises(ValueError, match=r"^Initial common delay must be an integer in \[0, 8190\], not 8191$"):
+        WindFarmReplay(2, init_common_delay=8191)
 
 
 STALLS = [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1)), ((0, 1, 0, 0, 1), (1,)), ((1,), (0, 1))]
@@ -81,19 +86,22 @@ def test_gaps_do_not_change_output():
         assert (hi == runs[0][0]).all() and (hq == runs[0][1]).all()
 
 
-@pytest.mark.parametrize("channel", [0, 2])
-def test_every_delay_echo_position(channel):
-    """Impulse through one channel, every delay 0..max: the echo is at exactly
-    L + sum of the delays up to that channel (checked directly, and against the model)."""
-    N = 3
-    maxd = KW["max_delay"] if channel == 0 else KW["max_increment"]
+@pytest.mark.parametrize("register", ["COMMON_DELAY", "DELAY"])
+def test_every_delay_echo_position(register):
+    """Impulse through channel 2, every value 0..max of COMMON_DELAY (tap 3) or
+    of its DELAY (common delay 2): the echo is at exactly L + COMMON_DELAY +
+    DELAY (checked directly, and against the model)."""
+    N, channel = 3, 2
+    maxd = KW["max_delay"] if register == "COMMON_DELAY" else KW["max_tap"]
     word = int(pack_iq([16384], [0])[0])
-    inits = [ChannelInit((word,), 0, 1 << 16, 2 if l != channel else 0, l == channel) for l in range(N)]
-    dut = WindFarmReplay(N, init=inits, **KW)
+    inits = [ChannelInit((word,), 0, 1 << 16, 3 if register == "COMMON_DELAY" else 0, l == channel)
+             for l in range(N)]
+    common = 2 if register == "DELAY" else 0
+    dut = WindFarmReplay(N, init=inits, init_common_delay=common, **KW)
     rmap = dut.register_map
     L = dut.latency
-    base_sum = sum(inits[l].delay for l in range(channel + 1))
-    per = L + KW["max_delay"] + 3 * KW["max_increment"] + 4
+    base_sum = common + inits[channel].delay
+    per = L + KW["max_delay"] + KW["max_tap"] + 4
     settle = dut.contract.refill_samples          # muted after reset while the caches fill
     T = settle + per * (maxd + 1)
     xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
@@ -101,7 +109,8 @@ def test_every_delay_echo_position(channel):
     for d in range(maxd + 1):
         start = settle + d * per
         xi[start + 1] = 20000
-        ops += [(start, "w", rmap.addr("DELAY", channel), d), (start, "w", rmap.addr("APPLY"), 1)]
+        ops += [(start, "w", rmap.addr(register, None if register == "COMMON_DELAY" else channel), d),
+                (start, "w", rmap.addr("APPLY"), 1)]
     hi, hq, done, _ = check(dut, inits, xi, xq, ops, valid=(1, 0, 1), name="delays")
     for d in range(maxd + 1):
         seg = hi[settle + d * per + 1: settle + (d + 1) * per + 1]
@@ -163,7 +172,7 @@ def test_identification_registers():
     dut = WindFarmReplay(2, **KW)
     rmap = dut.register_map
     ops = [(0, "r", rmap.addr(n), 0) for n in ("ID", "CONFIG", "LATENCY", "POOL_WORDS", "MAX_DELAY",
-                                               "MAX_INCREMENT")]
+                                               "MAX_TAP")]
     _, _, done, _ = check(dut, [], np.zeros(4, np.int64), np.zeros(4, np.int64), ops)
     vals = [v for *_, v in done]
     assert vals == [ID_VALUE, 2, dut.latency, KW["pool_words"], 20, 6]
@@ -220,7 +229,7 @@ def test_manifest_register_writes_place_echoes():
                       for n, s, d in zip(names, streams, delays)],
         "registers": {"channels": [
             {"windmill": n, "enable": 1, "length": len(s), "phase_increment": 1 << 30,
-             "gain": 1 << 16, "delay_increment": d - (delays[l - 1] if l else 0)}
+             "gain": 1 << 16, "delay_samples": d}
             for l, (n, s, d) in enumerate(zip(names, streams, delays))]},
     }
     writes = manifest_to_register_writes(manifest, dut.contract, streams=streams)
@@ -235,10 +244,10 @@ def test_manifest_register_writes_place_echoes():
     assert hi[p + delays[0]] == (8192 + 16384) // 2 and hi[p + delays[2]] == 24576 // 2
     with pytest.raises(ValueError, match=r"shorter than the replay block's fixed latency"):
         bad = dict(manifest, registers={"channels": [dict(manifest["registers"]["channels"][0],
-                                                          delay_increment=L - 1)]})
+                                                          delay_samples=L - 1)]})
         manifest_to_register_writes(bad, dut.contract)
-    inits = manifest_channel_inits(manifest, dut.contract, streams=streams)
-    assert inits[0].delay == 7 and inits[2].delay == 3
+    inits, common = manifest_channel_inits(manifest, dut.contract, streams=streams)
+    assert common == 7 and [i.delay for i in inits] == [0, 0, 3]
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -249,7 +258,7 @@ def test_random_register_stress(seed):
     half): a playing stream's words are the host's to keep."""
     rng = np.random.default_rng(100 + seed)
     N = 2
-    kw = dict(pool_words=32, max_delay=5, max_increment=3)
+    kw = dict(pool_words=32, max_delay=5, max_tap=3)
     inits = rand_inits(rng, N, depth=4)
     dut = WindFarmReplay(N, init=inits, interpolation=("hold", "linear")[seed % 2], **kw)
     a = dut.register_map.addr
@@ -287,7 +296,7 @@ def test_forced_switch_racing_a_wrap():
     a pending switch: both switches happen (bank toggles twice), as in the model."""
     words = [int(pack_iq([1000 * (k + 1)], [0])[0]) for k in range(4)]
     inits = [ChannelInit((words[0],), (1 << 32) - 1, 1 << 16, 0, True)]
-    dut = WindFarmReplay(1, init=inits, pool_words=16, max_delay=3, max_increment=1, interpolation="hold")
+    dut = WindFarmReplay(1, init=inits, pool_words=16, max_delay=3, max_tap=1, interpolation="hold")
     a = dut.register_map.addr
     R = dut.contract.refill_samples                # each switch mutes (phase held) this long
     T = 11 * (R + 6)
@@ -307,8 +316,8 @@ def test_forced_switch_racing_a_wrap():
 def test_sixteen_channels():
     rng = np.random.default_rng(16)
     inits = rand_inits(rng, 16, depth=4)
-    dut = WindFarmReplay(16, init=inits, pool_words=64, max_delay=5, max_increment=2, interpolation="hold")
-    assert dut.latency == 54
+    dut = WindFarmReplay(16, init=inits, pool_words=64, max_delay=5, max_tap=2, interpolation="hold")
+    assert dut.latency == 6 + 3 + 2 + 4          # delay lines, cmult, gain, 4 adder levels
     T = dut.contract.refill_samples + 160         # past the caches' first fill
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     check(dut, inits, xi, xq, valid=(1, 1, 0), name="N=16")

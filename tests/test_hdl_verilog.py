@@ -11,10 +11,10 @@ from rast.model.fixedpoint import ReplayContract, pack_iq
 
 
 @pytest.mark.parametrize("args", [
-    ["--channels", "1", "--pool-words", "16", "--max-delay", "14", "--max-increment", "0"],
-    ["--channels", "3", "--pool-words", "64", "--max-delay", "62", "--max-increment", "14",
+    ["--channels", "1", "--pool-words", "16", "--max-delay", "14", "--max-tap", "1"],
+    ["--channels", "3", "--pool-words", "64", "--max-delay", "62", "--max-tap", "14",
      "--interpolation", "linear", "--cmult-form", "3mult"],
-    ["--channels", "16", "--pool-words", "16", "--max-delay", "30", "--max-increment", "6",
+    ["--channels", "16", "--pool-words", "16", "--max-delay", "30", "--max-tap", "6",
      "--interpolation", "hold"],
 ])
 def test_verilog_lints_clean(tmp_path, args):
@@ -80,15 +80,15 @@ def test_manifest_baked_into_power_up_state(tmp_path):
         "windmills": [{"name": "a", "hex_file": "a.hex", "length": n}],
         "registers": {"channels": [{"windmill": "a", "enable": 1, "length": n,
                                     "phase_increment": increment, "gain": gain,
-                                    "delay_increment": delay}]},
+                                    "delay_samples": delay}]},
     }
     (tmp_path / "manifest.json").write_text(json.dumps(manifest))
     out = tmp_path / "baked.v"
-    args = ["--channels", "2", "--pool-words", "16", "--max-delay", "126", "--max-increment", "2"]
+    args = ["--channels", "2", "--pool-words", "16", "--max-delay", "126", "--max-tap", "2"]
     assert rv.main(args + ["--manifest", str(tmp_path / "manifest.json"), "-o", str(out)]) == 0
     text = out.read_text()
     assert "initial contents from manifest.json: a" in text
-    latency = ReplayContract(channels=2, pool_words=16, max_delay=126, max_increment=2).latency
+    latency = ReplayContract(channels=2, pool_words=16, max_delay=126, max_tap=2).latency
     modules = _modules(text)
 
     pool = _memory_init(modules["wind_farm_replay.pool.bank0"])
@@ -97,11 +97,12 @@ def test_manifest_baked_into_power_up_state(tmp_path):
     regs = modules["wind_farm_replay.regs"]
     assert _reg_init(regs, "ctrl0_enable") == 1 and _reg_init(regs, "ctrl1_enable") == 0
     assert _reg_init(regs, "gain0_gain") == gain and _reg_init(regs, "gain1_gain") == 0
-    assert _reg_init(regs, "delay0_delay") == delay - latency and _reg_init(regs, "delay1_delay") == 0
+    assert _reg_init(regs, "common_delay_delay") == delay - latency
+    assert _reg_init(regs, "delay0_delay") == 0 and _reg_init(regs, "delay1_delay") == 0
     assert _reg_init(regs, "length0_length") == n and _reg_init(regs, "base0_base") == 0
     assert _reg_init(regs, "phase_inc0_inc") == increment and _reg_init(regs, "phase_inc1_inc") == 0
 
     # Without the manifest every one of them powers up empty.
-    plain = _modules(gv.verilog_text(2, pool_words=16, max_delay=126, max_increment=2))
+    plain = _modules(gv.verilog_text(2, pool_words=16, max_delay=126, max_tap=2))
     assert _memory_init(plain["wind_farm_replay.pool.bank0"]) == [0] * 16
     assert _reg_init(plain["wind_farm_replay.regs"], "gain0_gain") == 0

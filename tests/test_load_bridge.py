@@ -24,7 +24,7 @@ from rast.model.regmap import ID_VALUE, register_map
 
 DIV = 4            # cycles per UART bit in simulation (the bridge's minimum)
 TIMEOUT = 400      # bridge frame timeout, cycles
-KW = dict(channels=2, pool_words=64, max_delay=60, max_increment=14)
+KW = dict(channels=2, pool_words=64, max_delay=60, max_tap=14)
 
 
 def make_system():
@@ -51,10 +51,10 @@ def test_version_id_and_registers():
     c = read_contract(br)
     assert c == ReplayContract(**KW)
     br.write(rmap.addr("GAIN", 1), 0x1ABCD)
-    br.write(rmap.addr("DELAY", 1), 15)                     # clamped to max_increment (14)
+    br.write(rmap.addr("DELAY", 1), 15)                     # clamped to max_tap (14)
     br.burst(rmap.addr("STREAM_DATA"), [1, 2, 3])
     assert br.read(rmap.addr("GAIN", 1)) == 0x1ABCD
-    assert br.read(rmap.addr("DELAY", 1)) == KW["max_increment"]
+    assert br.read(rmap.addr("DELAY", 1)) == KW["max_tap"]
     assert br.read(rmap.addr("STREAM_ADDR")) == 3           # the burst advanced the address
 
 
@@ -90,9 +90,9 @@ def _manifest(tmp_path, rng):
         wms.append({"name": f"wm{k}", "hex_file": f"wm{k}.hex", "length": n})
         chans.append({"windmill": f"wm{k}", "enable": 1, "length": n,
                       "phase_increment": [0x0055_5555, 0x0050_0000][k],   # FIR: <= 5592405
-                      "gain": [0xC000, 0x10000][k], "delay_increment": [40, 9][k]})
+                      "gain": [0xC000, 0x10000][k], "delay_samples": [40, 49][k]})
     (tmp_path / "manifest.json").write_text(json.dumps(
-        {"format": "rast-manifest/1", "windmills": wms, "registers": {"channels": chans}}))
+        {"format": "rast-manifest/2", "windmills": wms, "registers": {"channels": chans}}))
 
 
 @pytest.mark.parametrize("streams", [True, False])

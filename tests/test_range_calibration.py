@@ -61,30 +61,32 @@ def test_manifest_states_the_calibration():
 
 
 def _delay0(writes, contract):
-    return dict(writes)[register_map(contract).addr("DELAY", 0)]
+    """Channel 0's programmed delay: COMMON_DELAY + its tap."""
+    w, a = dict(writes), register_map(contract).addr
+    return w[a("COMMON_DELAY")] + w[a("DELAY", 0)]
 
 
 def test_board_target_subtracts_board_and_converters():
     fs = build_farm_streams(parse_config(farm(adc_latency=9, dac_latency=4)))
     m = fs.manifest()
-    c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_increment=62,
+    c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_tap=62,
                        interpolation="hold", sample_rate_hz=20_000_000)
     d = fs.streams[0].delay_samples                       # 267 samples at 2 km, 20 MHz
     assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - 7 - 13
     assert _delay0(manifest_to_register_writes(m, c, target="block"), c) == d - c.latency
     assert _delay0(manifest_to_register_writes(m, c), c) == d - c.latency          # default: block
-    # the increments of the further channels are not touched
-    inc = dict(manifest_to_register_writes(m, c, target="board"))[register_map(c).addr("DELAY", 1)]
-    assert inc == fs.streams[1].delay_samples - d
-    inits = manifest_channel_inits(m, c, streams=[s.words for s in fs.streams], target="board")
-    assert inits[0].delay == d - c.latency - BOARD_LATENCY - 13 and inits[1].delay == inc
+    # the taps of the further channels are not touched: the common delay takes the fixed part
+    tap = dict(manifest_to_register_writes(m, c, target="board"))[register_map(c).addr("DELAY", 1)]
+    assert tap == fs.streams[1].delay_samples - d
+    inits, common = manifest_channel_inits(m, c, streams=[s.words for s in fs.streams], target="board")
+    assert common == d - c.latency - BOARD_LATENCY - 13 and inits[0].delay == 0 and inits[1].delay == tap
 
 
 def test_manifest_without_calibration_loads_as_zero_converters():
     fs = build_farm_streams(parse_config(farm()))
     m = fs.manifest()
     del m["calibration"]
-    c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_increment=62,
+    c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_tap=62,
                        interpolation="hold")
     d = fs.streams[0].delay_samples
     assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - BOARD_LATENCY
@@ -114,8 +116,8 @@ def test_unknown_target_is_refused():
 
 def test_contract_states_the_board_latency():
     c = ReplayContract(channels=4)
-    assert c.board_latency == c.latency + 7 == 25
-    assert c.to_dict()["board_latency_samples"] == 25
+    assert c.board_latency == c.latency + 7 == 13 + 7
+    assert c.to_dict()["board_latency_samples"] == 20
     assert ReplayContract.from_dict(c.to_dict()) == c
     assert path_latency(c.latency, "block", 5, 5) == c.latency
     assert path_latency(c.latency, "board", 2, 3) == c.latency + 7 + 5

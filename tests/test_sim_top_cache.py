@@ -31,7 +31,7 @@ def test_cached_verilog_is_generated_once_per_key(tmp_path, monkeypatch):
 def test_cached_top_equals_a_fresh_generation(tmp_path, monkeypatch):
     from rast.gateware.verilog import verilog_text
     monkeypatch.setattr(runner, "SIM_BUILD", tmp_path)
-    kwargs = dict(pool_words=1024, max_delay=30, max_increment=6, interpolation="hold")
+    kwargs = dict(pool_words=1024, max_delay=30, max_tap=6, interpolation="hold")
     top.top_sources.cache_clear()
     first, _ = top.top_sources(1, **kwargs)
     top.top_sources.cache_clear()

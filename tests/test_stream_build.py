@@ -98,9 +98,9 @@ def test_bad_build_reports_are_refused(tmp_path, capsys, content, message):
 
 
 def test_contract_description_round_trips():
-    c = ReplayContract(channels=3, pool_words=64, max_delay=10, max_increment=4,
+    c = ReplayContract(channels=3, pool_words=64, max_delay=10, max_tap=4,
                        interpolation="linear", cmult_form="3mult", sample_rate_hz=12_345_678)
     d = c.to_dict()
     assert ReplayContract.from_dict(json.loads(json.dumps(d))) == c
     # linear: at most one word per N = 3 samples (what the fetch scan supplies)
-    assert d["latency_samples"] == 3 * 3 + 3 + 4 and d["max_phase_increment"] == (2**32 - 1) // 3
+    assert d["latency_samples"] == 6 + 4 + 2 + 2 and d["max_phase_increment"] == (2**32 - 1) // 3
