@@ -20,10 +20,13 @@ from rast.model.fixedpoint import ReplayContract
 #: label -> (what it answers, BuildConfig keyword arguments)
 LADDER = {
     "n8_20": ("default: 8 FIR channels at the examples' 20 MS/s, 65536-word pool", dict()),
-    "n4_100": ("wide band: 4 FIR channels at 100 MS/s", dict(channels=4, clock_mhz=100)),
+    "n4_100": ("wide band: 4 FIR channels at 100 MS/s, delays 4094 + 1022 (6.1 + 1.5 km)",
+               dict(channels=4, clock_mhz=100, max_delay=4094, max_tap=1022)),
+    "n4_100_d": ("4 FIR channels at 100 MS/s, the default delays 8190 + 2046",
+                 dict(channels=4, clock_mhz=100)),
     "n8_100": ("8 FIR channels at 100 MS/s", dict(channels=8, clock_mhz=100)),
-    "n8_20_80k": ("8 FIR channels, the largest pool beside them (81920 words)",
-                  dict(pool_words=81920)),
+    "n8_20_80k": ("8 FIR channels, the largest pool beside them (81920 words; window 1022)",
+                  dict(pool_words=81920, max_tap=1022)),
 }
 
 ROOT = Path(__file__).resolve().parent.parent / "build" / "bench_bitstream"

@@ -100,8 +100,10 @@ class PulseConfig:
                              f"not {self.carrier_offset_hz!r}")
         ratio = self.sample_rate_mhz * 1e6 / self.prf_hz
         if abs(ratio - round(ratio)) > 1e-9 * ratio:
-            raise ValueError(f"sample_rate/prf must be an integer number of samples per PRI, "
-                             f"not {ratio!r}")
+            fs, lo = self.sample_rate_mhz * 1e6, int(ratio)
+            raise ValueError(f"the PRI must be a whole number of RTS samples: {self.sample_rate_mhz:g} MHz / "
+                             f"prf {self.prf_hz:g} Hz = {ratio:.6g} samples (prf {fs / (lo + 1):.6g} Hz "
+                             f"gives {lo + 1}, {fs / lo:.6g} Hz gives {lo})")
         if self.pulse_samples < 1:
             raise ValueError(f"pulse_width_us must be at least one sample, not {self.pulse_width_us!r}")
         if self.pulse_samples > self.samples_per_pri:

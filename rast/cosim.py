@@ -126,10 +126,14 @@ def run(args) -> int:
     if args.simulator == "icarus" and "icarus" not in runner.available_simulators():
         print("rast cosim: Icarus Verilog (iverilog) is not installed", file=sys.stderr)
         return 2
+    t0 = time.monotonic()
+    try:
+        e = prepare(config, args.seconds, channels=args.channels, noise_rms=args.noise_rms)
+    except ValueError as error:       # the config holds no cosimulation (e.g. a PRI of no whole samples)
+        print(f"rast cosim: {Path(config).name}: {error}", file=sys.stderr)
+        return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    t0 = time.monotonic()
-    e = prepare(config, args.seconds, channels=args.channels, noise_rms=args.noise_rms)
     c = e.scenario.contract
     print(f"rast cosim: {Path(config).name}: {e.pulse.n_pulses} pulses, {e.info['samples']:,} RTS samples "
           f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s), pool words {c.pool_words}, "

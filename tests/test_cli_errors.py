@@ -146,6 +146,18 @@ def test_preview_missing_config(tmp_path, capsys):
     assert not png.parent.exists()
 
 
+def test_cosim_pri_of_no_whole_samples(tmp_path, capsys):
+    """A PRF that gives no whole number of RTS samples per PRI (20 MHz / 12 kHz)
+    is named, with the nearest PRFs that do, before the output folder exists."""
+    config = tmp_path / "farm.toml"
+    config.write_text(CONFIG.replace("radar_frequency = 5350\n", "radar_frequency = 5350\nprf = 12000\n"))
+    out = tmp_path / "cosim"
+    assert_user_error(*rast(["cosim", config, "--seconds", "0.01", "--out", out], capsys), "cosim",
+                      "the PRI must be a whole number of RTS samples", "prf 12000 Hz = 1666.67 samples",
+                      "prf 11997.6 Hz gives 1667", "12004.8 Hz gives 1666")
+    assert not out.exists()
+
+
 # -------------------------------------------------------------------- verilog
 
 VERILOG = ["verilog", "--channels", "1", "--pool-words", "16", "--max-delay", "126",
