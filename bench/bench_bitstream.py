@@ -22,11 +22,13 @@ LADDER = {
     "n8_20": ("default: 8 FIR channels at the examples' 20 MS/s, 65536-word pool", dict()),
     "n4_100": ("wide band: 4 FIR channels at 100 MS/s, delays 4094 + 1022 (6.1 + 1.5 km)",
                dict(channels=4, clock_mhz=100, max_delay=4094, max_tap=1022)),
-    "n4_100_d": ("4 FIR channels at 100 MS/s, the default delays 8190 + 2046",
-                 dict(channels=4, clock_mhz=100)),
+    "n4_100_d": ("4 FIR channels at 100 MS/s, delays 8190 + 2046",
+                 dict(channels=4, clock_mhz=100, max_delay=8190, max_tap=2046)),
+    "n8_20_61k": ("the default build with delays 8190 + 2046 (61 + 15 km at 20 MS/s)",
+                  dict(max_delay=8190, max_tap=2046)),
     "n8_100": ("8 FIR channels at 100 MS/s", dict(channels=8, clock_mhz=100)),
-    "n8_20_80k": ("8 FIR channels, the largest pool beside them (81920 words; window 1022)",
-                  dict(pool_words=81920, max_tap=1022)),
+    "n8_20_80k": ("8 FIR channels, the largest pool beside them (81920 words)",
+                  dict(pool_words=81920)),
 }
 
 ROOT = Path(__file__).resolve().parent.parent / "build" / "bench_bitstream"
@@ -52,7 +54,7 @@ def seed_capacity():
     from rast.model.config import load_config
     from rast.model.stream import build_farm_streams
     examples = Path(__file__).resolve().parent.parent / "examples"
-    windows = (ReplayContract.max_tap, 1022)
+    windows = (ReplayContract.max_tap, 2046)      # the default window, and the 15 km one
     print("\nturbines per LFE5U-85F (stream pool, one stream's room to reload, 4x max Doppler, FIR;"
           f" common delay {ReplayContract.max_delay}; each channel's delay window {windows[0]} "
           f"(default) or {windows[1]} samples deep):")

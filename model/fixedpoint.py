@@ -451,8 +451,8 @@ class ReplayContract:
     """
     channels: int = 4
     pool_words: int = 65536
-    max_delay: int = 8190
-    max_tap: int = 2046
+    max_delay: int = 4094
+    max_tap: int = 1022
     interpolation: str = "fir"
     cmult_form: str = "4mult"
     sample_rate_hz: int = 0

@@ -25,7 +25,8 @@ inserted with probability ``gap_thresh/256`` (a 32-bit LFSR seeded from
 
 Capture: ``cap_mode`` 0 writes every output; 1 writes only outputs whose
 position in their PRI is one of ``cap_offset[0..n_cap-1]`` (the radar's
-range gates). In both modes the wrapper folds every output into two
+range gates, at most ``MAX_CAP`` = 64: a farm's turbines, each at its own
+range; the wrapper walks them in ascending order, one compare per output). In both modes the wrapper folds every output into two
 Fletcher-style 64-bit checksums per lane (``s1 += x; s2 += s1``, wrapping),
 which :func:`checksums` reproduces in numpy, so a run that keeps only a few
 samples per pulse still proves that all outputs equal the model's.
@@ -53,7 +54,7 @@ import numpy as np
 __all__ = ["PortMap", "bulk_verilog", "TEMPLATE", "CFG_FIELDS", "BulkJob", "write_job", "read_outputs",
            "read_summary", "checksums", "MAX_CAP", "CLOCK_PERIOD_NS", "EXTERNAL_CLOCK_ENV"]
 
-MAX_CAP = 8
+MAX_CAP = 64
 #: Stands for an output sample with X/Z bits (as rast.sim.testbench.X_VALUE).
 X_VALUE = -(1 << 62)
 CLOCK_PERIOD_NS = 10
@@ -173,8 +174,10 @@ class BulkJob:
             raise ValueError(f"need 0 <= active <= pri, pri >= 1, not active={self.active} pri={self.pri}")
         if self.active and len(self.src) == 0:
             raise ValueError("active > 0 needs src words")
-        if self.cap_offsets is not None and not 0 < len(self.cap_offsets) <= MAX_CAP:
-            raise ValueError(f"1..{MAX_CAP} capture offsets, not {len(self.cap_offsets)}")
+        if self.cap_offsets is not None and not 0 < len(set(self.cap_offsets)) <= MAX_CAP:
+            raise ValueError(f"1..{MAX_CAP} capture offsets, not {len(set(self.cap_offsets))}")
+        if self.cap_offsets is not None and not all(0 <= o < self.pri for o in self.cap_offsets):
+            raise ValueError(f"capture offsets must be positions in the PRI, 0..{self.pri - 1}")
         ats = [r[0] for r in self.regs]
         if ats != sorted(ats):
             raise ValueError("register script must be in sample order")
@@ -201,7 +204,7 @@ def write_job(job: BulkJob, directory: Path, n_out: int | None = None) -> None:
     """Write ``cfg.hex``, ``src.hex`` and ``regs.hex`` for ``job`` into ``directory``."""
     job.validate()
     d = Path(directory)
-    cap = list(job.cap_offsets or [])
+    cap = sorted(set(job.cap_offsets or []))          # the wrapper walks them in ascending order
     values = dict(n_src=len(job.src), active=job.active, pri=job.pri, pulses=job.pulses,
                   flush=job.flush, n_regs=len(job.regs), n_out=job.n_in if n_out is None else n_out,
                   gap_thresh=job.gap_thresh,

@@ -29,6 +29,7 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
     localparam SRC_AW = ${src_aw};
     localparam REG_AW = ${reg_aw};
     // cfg.hex lines; the last MAX_CAP, from CAP_BASE, are the capture offsets
+    // (ascending, distinct; the first n_cap of them are used)
     localparam N_CFG = ${n_cfg};
     localparam MAX_CAP = ${max_cap};
     localparam CAP_BASE = ${cap_base};
@@ -90,21 +91,18 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
     wire [OUT_W-1:0] out_payload;
     wire out_valid;
     reg out_ready;
-    reg [63:0] out_pos, quiet;
+    reg [63:0] out_pos, quiet, cap_ptr;
     reg [63:0] s1_i, s2_i, s1_q, s2_q;
     wire signed [HALF-1:0] out_i = out_payload[HALF-1:0];
     wire signed [HALF-1:0] out_q = out_payload[OUT_W-1:HALF];
     wire [63:0] out_i64 = {{(64-HALF){out_i[HALF-1]}}, out_i};
     wire [63:0] out_q64 = {{(64-HALF){out_q[HALF-1]}}, out_q};
-    // capture offset c matches when it is one of the first n_cap
-    wire [MAX_CAP-1:0] cap_match;
-    genvar c;
-    generate
-        for (c = 0; c < MAX_CAP; c = c + 1) begin : cap_offset
-            assign cap_match[c] = n_cap > c && out_pos == cfg[CAP_BASE + c];
-        end
-    endgenerate
-    wire cap_hit = (cap_mode == 64'd0) || (|cap_match);
+    // the offsets ascend, so only the next one can match: cap_ptr walks them
+    // within each PRI (one compare per output, whatever MAX_CAP)
+    wire cap_more = cap_ptr < n_cap;
+    wire [63:0] cap_next = cfg[CAP_BASE + (cap_more ? cap_ptr : 64'd0)];
+    wire cap_match = cap_more && out_pos == cap_next;
+    wire cap_hit = (cap_mode == 64'd0) || cap_match;
     // 4-state simulators: an output with X/Z bits is counted (and kept out of the checksums)
     wire out_has_x = ((^out_payload) === 1'bx);
     reg [63:0] x_count;
@@ -136,7 +134,7 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
                     if (n_regs != 0) $readmemh("regs.hex", regs, 0, n_regs - 1);
                     fd_out = $fopen("out.txt", "w");
                     src_ptr <= 0; pos <= 0; pulse <= 0; flushed <= 0; rptr <= 0; gap_left <= 0;
-                    out_pos <= 0; quiet <= 0; x_count <= 0; s1_i <= 0; s2_i <= 0; s1_q <= 0; s2_q <= 0;
+                    out_pos <= 0; cap_ptr <= 0; quiet <= 0; x_count <= 0; s1_i <= 0; s2_i <= 0; s1_q <= 0; s2_q <= 0;
                     lfsr_in <= seed[31:0] | 32'd1;
                     lfsr_out <= (seed[63:32] ^ 32'h5a5a_a5a5) | 32'd1;
                     out_ready <= 1'b1;
@@ -182,6 +180,7 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
                 end
                 out_idx <= out_idx + 64'd1;
                 out_pos <= (out_pos + 64'd1 == pri) ? 64'd0 : out_pos + 64'd1;
+                cap_ptr <= (out_pos + 64'd1 == pri) ? 64'd0 : cap_ptr + {63'd0, cap_match};
                 quiet <= 64'd0;
             end else begin
                 quiet <= quiet + 64'd1;

@@ -295,7 +295,7 @@ def no_build(monkeypatch):
 @pytest.mark.parametrize("args, needles", [
     (["--channels", "16", "--pool-words", "16384"], ["16 channels", "160 MULT18X18D", "the LFE5U-85F has 156"]),
     (["--pool-words", "98304"], ["98304-word stream pool", "DP16KD block RAMs", "the LFE5U-85F has 208"]),
-    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 164 DP16KD", "the LFE5U-25F has 56"]),
+    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 148 DP16KD", "the LFE5U-25F has 56"]),
     (["--clock-mhz", "1000"], ["PLL output frequency must be in", "not 1000.0"]),
     (["--clock-mhz", "0"], ["Clock must be a positive number of MHz"]),
     (["--baud", "50000000"], ["Baud rate 50000000 is too fast"]),

@@ -97,7 +97,7 @@ def test_default_bitstream(tmp_path):
     assert 0 < r["luts"]["used"] < r["luts"]["available"]
     assert 0 < r["ffs"]["used"] < r["ffs"]["available"]
     assert rep["memory"]["pool_words"] == 65536
-    assert rep["memory"]["delay_samples"] == {"common": 8190, "tap": 2046}
+    assert rep["memory"]["delay_samples"] == {"common": 4094, "tap": 1022}
     assert "clock" in proc.stdout and "met" in proc.stdout
 
 

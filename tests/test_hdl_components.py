@@ -79,7 +79,8 @@ def test_stream_replay_parameters():
     (dict(pool_words=8), ValueError, r"^Pool words must be an integer of at least 16, not 8$"),
     (dict(pool_words=20000), ValueError,
      r"^Pool words must be a power of two from 16 to 16384 or a multiple of 16384, not 20000$"),
-    (dict(max_delay=-1), ValueError, r"^Maximum delay must be a non-negative integer, not -1$"),
+    (dict(max_delay=-1), ValueError, r"^Maximum delay must be a positive integer, not -1$"),
+    (dict(max_tap=0), ValueError, r"^Maximum tap must be a positive integer, not 0$"),
     (dict(cmult_form="x"), ValueError,
      r"^Complex multiplier form must be one of 4mult, 3mult, not 'x'$"),
 ])

@@ -53,8 +53,8 @@ def test_top_parameters():
         assert WindFarmReplay(16).latency == 6 + 3 + 2 + 4
         assert WindFarmReplay(5, cmult_form="3mult").latency == 6 + 4 + 2 + 3
         assert WindFarmReplay(1).latency == 6 + 3 + 2 + 1
-    with pytest.raises(ValueError, match=r"^Initial common delay must be an integer in \[0, 8190\], not 8191$"):
-        WindFarmReplay(2, init_common_delay=8191)
+    with pytest.raises(ValueError, match=r"^Initial common delay must be an integer in \[0, 4094\], not 4095$"):
+        WindFarmReplay(2, init_common_delay=4095)
 
 
 STALLS = [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1)), ((0, 1, 0, 0, 1), (1,)), ((1,), (0, 1))]

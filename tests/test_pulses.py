@@ -92,7 +92,8 @@ def test_for_seconds_counts_pulses():
 
 @pytest.mark.parametrize("kw, msg", [
     (dict(prf_hz=-1), r"^prf_hz must be a positive number, not -1$"),
-    (dict(prf_hz=30_000), r"^sample_rate/prf must be an integer"),
+    (dict(prf_hz=30_000), r"^the PRI must be a whole number of RTS samples: 20 MHz / prf 30000 Hz = 666.667 "
+                          r"samples \(prf 29985 Hz gives 667, 30030 Hz gives 666\)$"),
     (dict(shape="square"), r"^shape must be one of \('rect', 'chirp'\), not 'square'$"),
     (dict(amplitude=1.5), r"^amplitude must be a fraction of full scale in \[0, 1\], not 1.5$"),
     (dict(shape="chirp"), r"^a chirp needs bandwidth_mhz > 0$"),
