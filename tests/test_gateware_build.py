@@ -103,10 +103,10 @@ def test_default_bitstream(tmp_path):
 
 @pytest.mark.slow
 def test_fir_channels_close_100_mhz(tmp_path):
-    """The wide-band case: 4 FIR channels clocked at 100 MHz meet timing, with
-    delays for a 100 MS/s radar (4094 samples common, 6.1 km; a 1022-sample
-    window, 1.5 km) (docs/bitstream.md: 8 channels do not, yet, nor 4 with
-    the 20 MS/s defaults' 8190 + 2046 samples of delay RAM)."""
+    """The wide-band case: 4 FIR channels clocked at 100 MHz meet timing with
+    the default delays, stated: 4094 samples common (6.1 km at 100 MS/s) and
+    a 1022-sample window (1.5 km) (docs/bitstream.md: 8 channels do not,
+    yet, nor 4 with 8190 + 2046 samples of delay)."""
     out = tmp_path / "bit"
     proc = subprocess.run([sys.executable, "-m", "rast.cli", "build", "--channels", "4", "--clock-mhz", "100",
                            "--max-delay", "4094", "--max-tap", "1022", "--out", str(out)],
