@@ -68,7 +68,12 @@ class DelayLine(wiring.Component):
         # read address is a register and the RAM output register is ``o``.
         m.submodules.mem = mem = RegisteredRAM(self._width, self._depth)
         wp = Signal(range(self._depth))
-        ra = Signal(range(self._depth))
+        # The read address starts one word away from the write address: in the
+        # first enabled cycle both would otherwise be word 0, a same-edge
+        # read of the word being written, undefined on the DP16KD (the
+        # netlist simulation's model poisons it, and a common delay line
+        # then writes that word into every window). Word 1 is unwritten: 0.
+        ra = Signal(range(self._depth), init=1)
         self.wp, self.ra = wp, ra           # for formal checks
         m.d.comb += [mem.w_addr.eq(wp), mem.w_data.eq(self.i), mem.w_en.eq(self.en),
                      mem.r_addr.eq(ra), mem.r_en.eq(self.en), self.o.eq(mem.r_data)]
