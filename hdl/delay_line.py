@@ -5,6 +5,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from .ecp5_primitives import RegisteredRAM
+from ..model.fixedpoint import delay_depth
 
 __all__ = ["DelayLine"]
 
@@ -42,7 +43,7 @@ class DelayLine(wiring.Component):
             raise TypeError(f"Maximum delay must be a non-negative integer, not {max_delay!r}")
         self._width = width
         self._max_delay = max_delay
-        self._depth = 1 << max(1, (max_delay + 1).bit_length())
+        self._depth = delay_depth(max_delay)
         super().__init__({
             "en": In(1),
             "i": In(unsigned(width)),

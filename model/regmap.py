@@ -19,7 +19,7 @@ Access kinds of a field:
 from dataclasses import dataclass, field
 
 from .fixedpoint import (ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS,
-                         SEGMENT_LATENCY, sum_latency)
+                         SEGMENT_LATENCY, GAIN_LATENCY, sum_latency)
 from .powerup import ChannelInit
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
@@ -160,7 +160,7 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
         regs += [
             Register("CTRL", base + 0, (
                 Field("enable", 0, 1, "rw", int(ini.enable), "channel contributes to the sum; "
-                      f"written before input k, from output k + {2 + sum_latency(c.channels)}"),
+                      f"written before input k, from output k + {GAIN_LATENCY + sum_latency(c.channels)}"),
                 Field("swap", 1, 1, "wo", 0,
                       "write 1: switch to BASE/LENGTH/PHASE_INC at the next period boundary (at once "
                       "if the write leaves the channel disabled); reads 1 while pending"),
@@ -180,8 +180,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                      "latched into the stream at the switch", ch),
             Register("GAIN", base + 3, (Field("gain", 0, GAIN_WIDTH, "rw", ini.gain,
                                               "gain, unsigned, 16 fractional bits; written before "
-                                              f"input k, from output k + {2 + sum_latency(c.channels)}"),),
-                     f"written before input k: from output k + {2 + sum_latency(c.channels)} "
+                                              f"input k, from output k + {GAIN_LATENCY + sum_latency(c.channels)}"),),
+                     f"written before input k: from output k + {GAIN_LATENCY + sum_latency(c.channels)} "
                      "(docs/fixed_point.md, Alignment)", ch),
             Register("DELAY", base + 4, (Field("delay", 0, _bits(maxd), "rw", min(ini.delay, maxd),
                                                f"tap of this channel in the window, samples (0..{maxd}), "
