@@ -205,6 +205,7 @@ class PoolBench:
         self.corrupt_addr = None
         self.reordered = False
         self.answered: list[int] = []       # tags answered, drained by the scan
+        self.steady_latencies: list[int] = []   # rate mode: fetches answered once consumption runs
 
     async def start(self):
         d = self.dut
@@ -338,9 +339,24 @@ async def pool(dut):
                 break
     await bench.step({"rd_valid": 0})
     # --- play: the engine's scan, one channel offered per clock ---------------
+    # Stress mode (no consume_period): an answer is consumed at once, so every
+    # channel always wants a fetch and the pool is saturated. Rate mode: each
+    # channel consumes one word every consume_period clocks (staggered), from
+    # a cache that fetches keep `ahead` words ahead of it; consumption starts
+    # once every cache is full (and the host writes with it), and a
+    # consumption from an empty cache is an underflow.
     pos = [0] * tags
     inflight = [0] * tags
+    cached = [0] * tags
     ahead = p["ahead"]
+    period = p.get("consume_period")
+    consume_from = None
+    # aligned: every channel consumes in the same clock (the worst burst of
+    # fetch requests); otherwise staggered evenly over the period
+    stagger = 0 if p.get("aligned") else max(1, (period or 1) // tags)
+    min_cached = ahead
+    consumed_at = [None] * tags         # clock of a consumption not yet refilled
+    refill = []                         # clocks from a consumption to its cache being full again
     # a second writer overwrites stream words while they are being fetched
     pending_writes = collections.deque()
     fetch_pattern = p.get("fetch_pattern", "1")
@@ -348,12 +364,33 @@ async def pool(dut):
     for c in range(p["play_cycles"]):
         ch = c % tags
         drive = {"r_valid": 0, "w_valid": 0, "rd_valid": 0}
-        want = inflight[ch] < ahead and fetch_pattern[c % len(fetch_pattern)] == "1"
+        want = cached[ch] + inflight[ch] < ahead and fetch_pattern[c % len(fetch_pattern)] == "1"
+        if period is not None:
+            if consume_from is None and all(k == ahead for k in cached):
+                consume_from = c
+                bench.stats["prefill_cycles"] = c
+            r = None if consume_from is None else (c - consume_from) % period
+            if stagger == 0:
+                dues = range(tags) if r == 0 else ()
+            else:
+                dues = (r // stagger,) if r is not None and r % stagger == 0 and r // stagger < tags else ()
+            # channel `due` consumes at consume_from + due·stagger + k·period
+            for due in dues:
+                if True:
+                    consumed_at[due] = c
+                    min_cached = min(min_cached, cached[due])
+                    if cached[due] == 0:
+                        bench.stats["underflows"] += 1
+                        if bench.stats["underflows"] == 1:
+                            bench.stats["first_underflow"] = f"channel {due} at play cycle {c}"
+                    else:
+                        cached[due] -= 1
+                        bench.stats["consumed"] += 1
         if want:
             base, L = streams[ch]
             addr = base + pos[ch]
             drive.update(r_valid=1, r_addr=addr, r_tag=ch)
-        if p["mixed_writes"]:
+        if p["mixed_writes"] and (period is None or consume_from is not None):
             if not pending_writes and rng.random() < 1 / p["write_gap"]:
                 t = rng.randrange(tags)
                 a = streams[t][0] + rng.randrange(streams[t][1])
@@ -373,9 +410,16 @@ async def pool(dut):
             a, w = pending_writes.popleft()
             bench.model_write(a, w)
             bench.stats["play_writes"] += 1
-        # answers seen in this step free their channels' slots
+        # answers seen in this step fill their channels' caches
         for ch2 in bench.answered:
             inflight[ch2] -= 1
+            if period is not None:
+                cached[ch2] += 1
+                if cached[ch2] == ahead and consumed_at[ch2] is not None:
+                    refill.append(c - consumed_at[ch2])
+                    consumed_at[ch2] = None
+            if consume_from is not None:
+                bench.steady_latencies.append(bench.latencies[-1])   # one answer per clock at most
         bench.answered.clear()
     play_cycles = bench.cycle - play_start
     # --- drain -------------------------------------------------------------------
@@ -396,8 +440,17 @@ async def pool(dut):
         "latency_cycles": {"min": lat[0], "median": lat[len(lat) // 2], "p99": lat[int(len(lat) * 0.99)],
                            "max": lat[-1]} if lat else None,
         "latency_histogram": dict(collections.Counter(lat)),
+        "min_cached_at_consume": min_cached if period is not None else None,
+        "max_refill_cycles": max(refill) if refill else None,
+        "refills": len(refill),
+        "steady_latency_max": max(bench.steady_latencies) if bench.steady_latencies else None,
     }
     (run_dir() / "report.json").write_text(json.dumps(report, indent=1) + "\n")
+    if bench.stats["underflows"]:
+        fail(f"{bench.stats['underflows']} underflows (a channel consumed from an empty cache), first: "
+             f"{bench.stats['first_underflow']}; worst fetch latency {lat[-1] if lat else None} clocks")
+    if period is not None and not bench.stats["consumed"]:
+        fail("rate mode: the caches never filled, nothing was consumed")
     if checker.violations:
         fail("SDRAM command checks failed:\n" + "\n".join(checker.violations[:20]))
     if p.get("expect_refusals") and not bench.stats["refused"]:

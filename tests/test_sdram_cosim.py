@@ -61,3 +61,37 @@ def test_checks_can_fail(inject, match):
     extra = {"timing_scale": {"tRCD": 2.5}} if inject == "timing" else {}
     with pytest.raises(runner.SimulationFailed, match=match):
         run_pool(f"inject_{inject}", inject=inject, play_cycles=1500, **extra)
+
+
+#: The engine's worst case (issue 10): fs = 20 MS/s, fclk = 200 MHz, one word
+#: per channel per 768 samples at most = every 7680 engine clocks, 13 words
+#: ahead in a 16-word cache, 64 channels.
+ENGINE_PERIOD = 768 * 200 // 20
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("aligned", [False, True], ids=["staggered", "aligned"])
+def test_engine_rate_with_host_write_burst(aligned):
+    """64 channels at the highest stream rate, 13 words ahead, while the host
+    writes back to back into the streams being played (far above the UART's
+    rate) and refresh runs: no channel ever finds its cache empty. "aligned":
+    all 64 channels consume in the same clock, the worst burst of fetches.
+    The report (printed) gives the worst fetch latency, the worst time from a
+    consumption to the cache being full again, and the least cache level."""
+    rep = run_pool(f"engine_rate_{'aligned' if aligned else 'staggered'}", consume_period=ENGINE_PERIOD,
+                   aligned=aligned, mixed_writes=True, write_gap=2,
+                   play_cycles=2 * ENGINE_PERIOD + 40_000, drain_cycles=20_000)
+    print(json.dumps({k: v for k, v in rep.items() if k != "latency_histogram"}, indent=1))
+    assert rep["stats"]["consumed"] >= 2 * 64
+    assert rep["stats"].get("underflows", 0) == 0
+    assert rep["min_cached_at_consume"] >= 1
+    # every refill well inside one word period (the deadline is 13 periods away)
+    assert rep["max_refill_cycles"] < ENGINE_PERIOD
+
+
+def test_underflow_is_caught():
+    """The same check with one word ahead and a period far below what the pool
+    can serve under a write burst: underflows are reported."""
+    with pytest.raises(runner.SimulationFailed, match=r"underflows \(a channel consumed from an empty cache\)"):
+        run_pool("underflow", consume_period=64, ahead=1, mixed_writes=True, write_gap=2,
+                 play_cycles=6000)
