@@ -6,6 +6,7 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .ecp5_primitives import RegisteredMultiplier
+from ..model.fixedpoint import CMULT_CYCLES
 
 __all__ = ["ComplexMultiplier"]
 
@@ -15,6 +16,14 @@ FORMS = ("4mult", "3mult")
 class ComplexMultiplier(wiring.Component):
     """``o = round_half_up(a * b, shift)``, pipelined, advancing when ``en``.
 
+    Stage by stage (``4mult``): the operands into the multipliers' input
+    registers, the products into their output registers (``MULT18X18D`` on
+    ECP5), the products again into fabric registers (the multiplier's output
+    routed straight into a carry chain limited a 200 MHz build), the
+    difference and sum, the rounding: ``latency`` = CMULT_CYCLES["4mult"].
+    ``3mult`` adds a fabric stage for its pre-additions in front. Both forms
+    give identical integers: the products are exact.
+
     Parameters
     ----------
     a_width, b_width : int
@@ -23,14 +32,13 @@ class ComplexMultiplier(wiring.Component):
         Bits dropped by the single rounding step (round half up: add
         ``2**(shift-1)``, arithmetic shift right).
     form : str
-        ``"4mult"``: four products, two additions (latency 3).
-        ``"3mult"``: pre-additions, three products, two additions (latency 4).
-        Both give identical integers: the products are exact.
+        ``"4mult"`` (four products) or ``"3mult"`` (pre-additions, three
+        products).
 
     Members
     -------
     en : In(1)
-        Clock enable: the pipeline advances one sample.
+        Clock enable: the pipeline advances one step.
     a, b : In(IQ(a_width)), In(IQ(b_width))
     o : Out(IQ(o_width))
         ``o_width = a_width + b_width + 1 - shift`` holds every result.
@@ -69,17 +77,10 @@ class ComplexMultiplier(wiring.Component):
 
     @property
     def latency(self):
-        """Samples from ``a``/``b`` to ``o``: 3 (``4mult``) or 4 (``3mult``)."""
-        return 3 if self._form == "4mult" else 4
+        """Steps from ``a``/``b`` to ``o`` (CMULT_CYCLES of the form)."""
+        return CMULT_CYCLES[self._form]
 
     def elaborate(self, platform):
-        # Stage by stage (4mult): operands into the multipliers' input
-        # registers, products into their output registers (MULT18X18D on
-        # ECP5), then difference/sum and rounding together in one fabric stage.
-        # (3mult: the pre-additions take a fabric stage first.) The block RAM
-        # outputs feeding ``a`` and ``b`` thus reach a register with no logic
-        # on the way: that route, not the arithmetic, limited the first
-        # registered build.
         m = Module()
         a, b, en = self.a, self.b, self.en
         half = 1 << (self._shift - 1)
@@ -88,12 +89,16 @@ class ComplexMultiplier(wiring.Component):
             unit = RegisteredMultiplier(len(x), len(y), input_reg=True)
             m.submodules[f"mul_{name}"] = unit
             m.d.comb += [unit.en.eq(en), unit.a.eq(x), unit.b.eq(y)]
-            return unit.o
+            # the product again in a fabric register, next to the adders
+            q = Signal.like(unit.o, name=f"p_{name}")
+            with m.If(en):
+                m.d.sync += q.eq(unit.o)
+            return q
 
         if self._form == "4mult":
             rr, ii = mul("rr", a.re, b.re), mul("ii", a.im, b.im)
             ri, ir = mul("ri", a.re, b.im), mul("ir", a.im, b.re)
-            re, im = rr - ii, ri + ir
+            re_v, im_v = rr - ii, ri + ir
         else:
             s1 = Signal(signed(self._a_width + 1))   # a.re + a.im
             s2 = Signal(signed(self._b_width + 1))   # b.im - b.re
@@ -104,8 +109,11 @@ class ComplexMultiplier(wiring.Component):
                 m.d.sync += [s1.eq(a.re + a.im), s2.eq(b.im - b.re), s3.eq(b.re + b.im),
                              ar.eq(a.re), ai.eq(a.im), br.eq(b.re)]
             k1, k2, k3 = mul("k1", br, s1), mul("k2", ar, s2), mul("k3", ai, s3)
-            re, im = k1 - k3, k1 + k2
+            re_v, im_v = k1 - k3, k1 + k2
+        re = Signal(signed(self._full_width), name="re_full")
+        im = Signal(signed(self._full_width), name="im_full")
         with m.If(en):
-            m.d.sync += [self.o.re.eq((re + half) >> self._shift),
+            m.d.sync += [re.eq(re_v), im.eq(im_v),
+                         self.o.re.eq((re + half) >> self._shift),
                          self.o.im.eq((im + half) >> self._shift)]
         return m

@@ -1,4 +1,4 @@
-"""RAM-based delay line with a run-time programmable length."""
+"""A RAM delay line indexed by step: written once per step, read at any tap."""
 
 from amaranth.hdl import Module, Signal, unsigned
 from amaranth.lib import wiring
@@ -11,43 +11,59 @@ __all__ = ["DelayLine"]
 
 
 class DelayLine(wiring.Component):
-    """``o[n] = i[n - latency - delay[n - latency]]``, advancing when ``en``.
+    """Step-indexed delay line: the word of step k is written at address
+    ``k mod depth``; a read for step n at delay d returns the word of step
+    ``n - lag - d`` (``o``, ``latency`` clocks after ``r_index``/``r_delay``).
 
-    One block RAM of ``depth`` words (the power of two >= ``max_delay + 2``),
-    written at a free-running pointer and read ``delay + 1`` words behind it;
-    the read address comes from a register and the RAM output is registered
-    (``latency = 3``). Words never written read as zero.
+    One block RAM of ``depth`` words (the power of two >= ``max_delay + 2``)
+    with a registered read address and a registered output. The engine's
+    common line reads once per step, each pipeline's window once per slot;
+    the caller keeps the step count and writes each step's word before any
+    read that needs it (``rast.hdl.replay_top``). With ``lag`` >= 1 a read
+    never addresses the word written in the same clock: the read for step n
+    at delay ``max_delay`` addresses ``n - lag - max_delay``, which step ``n +
+    1`` overwrites only after ``depth >= max_delay + lag + 1`` steps.
+    Words never written read as zero.
 
     Parameters
     ----------
     width : int
         Bits per word.
     max_delay : int
-        Largest programmable delay.
+        Largest delay.
+    lag : int
+        Steps between a word and its read at delay 0 (the contract's
+        COMMON_LAG / WINDOW_LAG).
 
     Members
     -------
-    en : In(1)
-    i : In(width)
-    delay : In(range(max_delay + 1))
-        Programmed delay; values above ``max_delay`` must not be applied.
+    w_en : In(1), w_index : In(range(depth)), w_data : In(width)
+        Write the word of step ``w_index``.
+    r_index : In(range(depth)), r_delay : In(range(max_delay + 1))
+        Read for step ``r_index`` at delay ``r_delay`` (values above
+        ``max_delay`` must not be given).
     o : Out(width)
     """
 
     latency = 3
 
-    def __init__(self, width, max_delay):
+    def __init__(self, width, max_delay, lag=1):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"Delay line width must be a positive integer, not {width!r}")
         if not isinstance(max_delay, int) or isinstance(max_delay, bool) or max_delay < 0:
             raise TypeError(f"Maximum delay must be a non-negative integer, not {max_delay!r}")
+        if not isinstance(lag, int) or isinstance(lag, bool) or lag < 1:
+            raise ValueError(f"Lag must be a positive integer, not {lag!r}")
         self._width = width
         self._max_delay = max_delay
-        self._depth = delay_depth(max_delay)
+        self._lag = lag
+        self._depth = delay_depth(max_delay + lag - 1)
         super().__init__({
-            "en": In(1),
-            "i": In(unsigned(width)),
-            "delay": In(range(max_delay + 1)),
+            "w_en": In(1),
+            "w_index": In(range(self._depth)),
+            "w_data": In(unsigned(width)),
+            "r_index": In(range(self._depth)),
+            "r_delay": In(range(max_delay + 1)),
             "o": Out(unsigned(width)),
         })
 
@@ -65,19 +81,11 @@ class DelayLine(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        # Block RAM with its output register (DP16KD OUTREG on ECP5): the
-        # read address is a register and the RAM output register is ``o``.
-        m.submodules.mem = mem = RegisteredRAM(self._width, self._depth)
-        wp = Signal(range(self._depth))
-        # The read address starts one word away from the write address: in the
-        # first enabled cycle both would otherwise be word 0, a same-edge
-        # read of the word being written, undefined on the DP16KD (the
-        # netlist simulation's model poisons it, and a common delay line
-        # then writes that word into every window). Word 1 is unwritten: 0.
-        ra = Signal(range(self._depth), init=1)
-        self.wp, self.ra = wp, ra           # for formal checks
-        m.d.comb += [mem.w_addr.eq(wp), mem.w_data.eq(self.i), mem.w_en.eq(self.en),
-                     mem.r_addr.eq(ra), mem.r_en.eq(self.en), self.o.eq(mem.r_data)]
-        with m.If(self.en):
-            m.d.sync += [wp.eq(wp + 1), ra.eq(wp - self.delay)]
+        # Block RAM with its output register (DP16KD OUTREG on ECP5), the read
+        # address from a register beside it.
+        m.submodules.mem = mem = RegisteredRAM(self._width, self._depth, addr_reg=True)
+        assert mem.latency == self.latency
+        m.d.comb += [mem.w_en.eq(self.w_en), mem.w_addr.eq(self.w_index), mem.w_data.eq(self.w_data),
+                     mem.r_en.eq(1), mem.r_addr.eq(self.r_index - self._lag - self.r_delay),
+                     self.o.eq(mem.r_data)]
         return m

@@ -1,20 +1,23 @@
 """Memory-mapped register file, generated from ``rast.model.regmap``."""
 
-from amaranth.hdl import Module, Signal, Const, Mux, Cat
-from amaranth.lib import wiring
+from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array
+from amaranth.lib import wiring, data
 from amaranth.lib.wiring import In, Out
 
 from ..model.regmap import RegisterMap
-from ..model.fixedpoint import STREAM_WIDTH
+from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 
-__all__ = ["BusSignature", "RegisterFile"]
+__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout"]
 
 
 class BusSignature(wiring.Signature):
     """A minimal register bus, seen from the host (initiator).
 
-    One access per cycle: ``w_stb`` writes ``w_data`` at ``addr``; ``r_stb``
-    reads ``addr``, the value appears on ``r_data`` in the next cycle.
+    One access at a time: the initiator holds ``addr`` with ``w_stb`` and
+    ``w_data`` (a write) or with ``r_stb`` (a read) until a cycle in which
+    ``ready`` is high; the access is taken in that cycle. A read's data is on
+    ``r_data`` in the cycle ``r_valid`` is high, a fixed number of cycles later
+    (reads are taken in order and may overlap).
     """
 
     def __init__(self, addr_width, data_width=32):
@@ -23,58 +26,90 @@ class BusSignature(wiring.Signature):
             "w_stb": Out(1),
             "w_data": Out(data_width),
             "r_stb": Out(1),
+            "ready": In(1),
             "r_data": In(data_width),
+            "r_valid": In(1),
         })
 
 
-class RegisterFile(wiring.Component):
-    """Storage, strobes and read-back for every register of ``rmap``.
+def channel_regs_layout(rmap: RegisterMap) -> data.StructLayout:
+    """What the engine reads of one channel's registers in its slot: the
+    stored values, the applied tap and the pending CTRL command (a CTRL write
+    not yet seen by the channel: its enable and swap bits)."""
+    c = rmap.contract
+    return data.StructLayout({
+        "enable": 1,
+        "gain": GAIN_WIDTH,
+        "length": rmap.reg("LENGTH", 0).field("length").width,
+        "increment": PHASE_FRAC_BITS,
+        "base": c.pool_address_width,
+        "tap": rmap.reg("DELAY", 0).field("delay").width,
+        "cmd_valid": 1,
+        "cmd_enable": 1,
+        "cmd_swap": 1,
+    })
 
-    Storage (``rw`` fields) is created generically from the description;
-    the commands (``wo`` fields) and the sticky status are wired by name.
+
+class RegisterFile(wiring.Component):
+    """Storage, commands and read-back for every register of ``rmap``.
+
+    The engine's timing decides when the bus may be taken and when what is
+    taken lands: ``take`` (from the engine) is the bus's ``ready``; a write
+    taken in cycle t lands (storage, commands, APPLY, the pool write) in cycle
+    ``t + write_delay``. A read taken in cycle t samples the stored values in
+    cycle ``t + write_delay``, the engine's per-channel state mirrors
+    (CTRL.swap, CTRL.bank) in cycle ``t + mirror_delay`` and the sticky
+    overflow flag in cycle ``t + status_delay`` (clearing it there), so that
+    every part of the answer is the state between the same two steps; the
+    answer is on ``r_data`` with ``r_valid`` ``read_latency`` cycles after t.
+
+    Parameters
+    ----------
+    rmap : RegisterMap
+    write_delay, mirror_delay, status_delay : int
+        Cycles from a taken access to its landing / sampling points (see above).
 
     Members
     -------
     bus : In(BusSignature)
-    enable, gain, delay, length, increment : Out, one per channel
-        ``delay`` is the applied tap (copied from the DELAY registers by APPLY).
+    take : In(1)
+        The bus may be taken in this cycle.
+    regs : Out(channel_regs_layout).array(N)
+        Per channel: stored values, the applied tap, the pending command.
+    cmd_ack : In(1).array(N)
+        The engine read channel l's registers: its command is consumed.
     common_delay : Out
         The applied common delay (copied from COMMON_DELAY by APPLY).
-    swap_req, swap_force : Out(1) per channel, strobes of a CTRL write
-    base : Out(pool address) per channel
-    pending_next, bank_next : In(1) per channel, from the stream replays
+    pending, bank : In(1).array(N)
+        The channels' state, from the engine.
     wr_en : Out(1), wr_addr : Out(pool address), wr_data : Out(32)
-        Registered pool write (one cycle after the STREAM_DATA write).
+        Pool write, registered (the cycle after a STREAM_DATA write lands).
     overflow_set : In(1)
-        An output sample saturated in this cycle.
+        An output sample saturated (its saturation register is loaded) in this cycle.
     overflow : Out(1)
         The sticky overflow flag.
     """
 
-    def __init__(self, rmap: RegisterMap):
+    def __init__(self, rmap: RegisterMap, *, write_delay=0, mirror_delay=1, status_delay=1):
         if not isinstance(rmap, RegisterMap):
             raise TypeError(f"Register map must be a RegisterMap, not {rmap!r}")
+        for name, v in (("Write delay", write_delay), ("Mirror delay", mirror_delay),
+                        ("Status delay", status_delay)):
+            if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+                raise ValueError(f"{name} must be a non-negative integer, not {v!r}")
         self._rmap = rmap
+        self._write_delay, self._mirror_delay, self._status_delay = write_delay, mirror_delay, status_delay
         c = rmap.contract
         N = c.channels
-        self._widths = {name: rmap.reg(name, 0).field(fname).width for name, fname in
-                        (("GAIN", "gain"), ("LENGTH", "length"), ("PHASE_INC", "inc"),
-                                           ("BASE", "base"))}
-        self._dw = rmap.reg("DELAY", 0).field("delay").width
         self._cw = rmap.reg("COMMON_DELAY").field("delay").width
         super().__init__({
             "bus": In(BusSignature(rmap.addr_width)),
-            "enable": Out(1).array(N),
-            "gain": Out(self._widths["GAIN"]).array(N),
-            "length": Out(self._widths["LENGTH"]).array(N),
-            "increment": Out(self._widths["PHASE_INC"]).array(N),
-            "base": Out(self._widths["BASE"]).array(N),
-            "delay": Out(self._dw).array(N),
+            "take": In(1),
+            "regs": Out(channel_regs_layout(rmap)).array(N),
+            "cmd_ack": In(1).array(N),
             "common_delay": Out(self._cw),
-            "swap_req": Out(1).array(N),
-            "swap_force": Out(1).array(N),
-            "pending_next": In(1).array(N),
-            "bank_next": In(1).array(N),
+            "pending": In(1).array(N),
+            "bank": In(1).array(N),
             "wr_en": Out(1),
             "wr_addr": Out(c.pool_address_width),
             "wr_data": Out(2 * STREAM_WIDTH),
@@ -86,11 +121,34 @@ class RegisterFile(wiring.Component):
     def rmap(self):
         return self._rmap
 
+    #: Registered levels of the read-back multiplexer behind the sampling points.
+    SELECT_LEVELS = 2
+
+    @property
+    def read_latency(self) -> int:
+        """Cycles from a taken read to ``r_valid``."""
+        return max(self._write_delay, self._mirror_delay, self._status_delay) + self.SELECT_LEVELS + 1
+
     def elaborate(self, platform):
         m = Module()
         rmap, bus = self._rmap, self.bus
         c = rmap.contract
         N = c.channels
+        m.d.comb += bus.ready.eq(self.take)
+
+        # The access travels down a register pipeline, one stage per cycle.
+        op = data.StructLayout({"valid": 1, "write": 1, "addr": len(bus.addr), "data": 32})
+        depth = self.read_latency
+        stage = [Signal(op, name="op0")] + [Signal(op, name=f"op{k}") for k in range(1, depth + 1)]
+        taken = self.take & (bus.w_stb | bus.r_stb)
+        m.d.comb += [stage[0].valid.eq(taken), stage[0].write.eq(bus.w_stb),
+                     stage[0].addr.eq(bus.addr), stage[0].data.eq(bus.w_data)]
+        m.d.sync += [stage[k].eq(stage[k - 1]) for k in range(1, depth + 1)]
+
+        land = stage[self._write_delay]
+        wr = Signal(name="write_lands")
+        m.d.comb += wr.eq(land.valid & land.write)
+
         storage = {}          # (reg name, channel, field name) -> Signal
         for r in rmap.registers:
             for f in r.fields:
@@ -99,7 +157,7 @@ class RegisterFile(wiring.Component):
                         f.width, init=f.reset, name=f"{r.name.lower()}{'' if r.channel is None else r.channel}_{f.name}")
 
         def wsel(r):
-            return bus.w_stb & (bus.addr == r.addr)
+            return wr & (land.addr == r.addr)
 
         # Generic rw storage, masked then clamped.
         for r in rmap.registers:
@@ -107,7 +165,7 @@ class RegisterFile(wiring.Component):
                 if f.access != "rw":
                     continue
                 sig = storage[(r.name, r.channel, f.name)]
-                v = bus.w_data[f.lsb:f.lsb + f.width]
+                v = land.data[f.lsb:f.lsb + f.width]
                 if f.clamp:
                     lo, hi = f.clamp
                     if hi < (1 << f.width) - 1:
@@ -117,27 +175,31 @@ class RegisterFile(wiring.Component):
                 with m.If(wsel(r)):
                     m.d.sync += sig.eq(v)
 
-        # Per-channel outputs and commands.
-        apply = wsel(rmap.reg("APPLY")) & bus.w_data[0]
+        # Per channel: what the engine reads, the applied tap, the command.
+        apply = wsel(rmap.reg("APPLY")) & land.data[0]
         for l in range(N):
             ctrl = rmap.reg("CTRL", l)
-            en_written = bus.w_data[ctrl.field("enable").lsb]
-            swap_written = bus.w_data[ctrl.field("swap").lsb]
-            force = wsel(ctrl) & ~en_written & (swap_written | self.pending_next[l])
-            m.d.comb += [
-                self.enable[l].eq(storage[("CTRL", l, "enable")]),
-                self.gain[l].eq(storage[("GAIN", l, "gain")]),
-                self.length[l].eq(storage[("LENGTH", l, "length")]),
-                self.increment[l].eq(storage[("PHASE_INC", l, "inc")]),
-                self.base[l].eq(storage[("BASE", l, "base")]),
-                self.swap_force[l].eq(force),
-                self.swap_req[l].eq(wsel(ctrl) & swap_written & ~force),
-            ]
+            rg = self.regs[l]
             d = rmap.reg("DELAY", l)
-            applied = Signal(self._dw, init=d.fields[0].reset, name=f"delay{l}_applied")
+            tap = Signal(rg.tap.shape(), init=d.fields[0].reset, name=f"tap{l}")
             with m.If(apply):
-                m.d.sync += applied.eq(storage[("DELAY", l, "delay")])
-            m.d.comb += self.delay[l].eq(applied)
+                m.d.sync += tap.eq(storage[("DELAY", l, "delay")])
+            # A CTRL write leaves a command for the channel's next visit; the
+            # engine consumes it when it reads the channel (cmd_ack).
+            with m.If(wsel(ctrl)):
+                m.d.sync += [rg.cmd_valid.eq(1),
+                             rg.cmd_enable.eq(land.data[ctrl.field("enable").lsb]),
+                             rg.cmd_swap.eq(land.data[ctrl.field("swap").lsb])]
+            with m.Elif(self.cmd_ack[l]):
+                m.d.sync += rg.cmd_valid.eq(0)
+            m.d.comb += [
+                rg.enable.eq(storage[("CTRL", l, "enable")]),
+                rg.gain.eq(storage[("GAIN", l, "gain")]),
+                rg.length.eq(storage[("LENGTH", l, "length")]),
+                rg.increment.eq(storage[("PHASE_INC", l, "inc")]),
+                rg.base.eq(storage[("BASE", l, "base")]),
+                rg.tap.eq(tap),
+            ]
 
         common = rmap.reg("COMMON_DELAY")
         applied = Signal(self._cw, init=common.fields[0].reset, name="common_delay_applied")
@@ -150,41 +212,89 @@ class RegisterFile(wiring.Component):
         data_w = wsel(rmap.reg("STREAM_DATA"))
         m.d.sync += self.wr_en.eq(data_w)
         with m.If(data_w):
-            m.d.sync += [self.wr_addr.eq(addr), self.wr_data.eq(bus.w_data),
-                         addr.eq(addr + 1)]
+            m.d.sync += [self.wr_addr.eq(addr), self.wr_data.eq(land.data), addr.eq(addr + 1)]
 
-        # Sticky overflow, cleared by reading STATUS (a saturation in the
-        # same cycle is reported by that read and cleared with it).
+        # Sticky overflow: a read of STATUS samples it at status_delay and
+        # clears what it reported (a saturation in that cycle stays set).
         status = rmap.reg("STATUS")
         flag = self.overflow
-        rsel_status = bus.r_stb & (bus.addr == status.addr)
-        m.d.sync += flag.eq(Mux(rsel_status, 0, flag | self.overflow_set))
+        st = stage[self._status_delay]
+        clear = Signal()
+        m.d.comb += clear.eq(st.valid & ~st.write & (st.addr == status.addr))
+        m.d.sync += flag.eq(Mux(clear, 0, flag) | self.overflow_set)
 
-        # Read-back: registered; live bits show the state after this cycle.
-        hooks = {("STATUS", None, "overflow"): flag | self.overflow_set}
+        # Read-back: three parts, each sampled at its own stage, each a
+        # registered selection over the registers (SELECT_LEVELS levels), ORed.
+        hooks_mirror, hooks_status = {}, {("STATUS", None, "overflow"): flag}
         for l in range(N):
-            hooks[("CTRL", l, "swap")] = self.pending_next[l]
-            hooks[("CTRL", l, "bank")] = self.bank_next[l]
-        with m.If(bus.r_stb):
-            with m.Switch(bus.addr):
-                for r in rmap.registers:
-                    with m.Case(r.addr):
-                        parts = []
-                        for f in r.fields:
-                            key = (r.name, r.channel, f.name)
-                            if key in storage:
-                                v = storage[key]
-                            elif key in hooks:
-                                v = hooks[key]
-                            elif f.access == "ro":
-                                v = Const(f.reset, f.width)
-                            else:
-                                v = Const(0, f.width)
-                            parts.append((f.lsb, v))
-                        word = Const(0, 32)
-                        for lsb, v in parts:
-                            word = word | (v.as_unsigned() << lsb)
-                        m.d.sync += bus.r_data.eq(word[:32])
-                with m.Default():
-                    m.d.sync += bus.r_data.eq(0)
+            hooks_mirror[("CTRL", l, "swap")] = self.pending[l]
+            hooks_mirror[("CTRL", l, "bank")] = self.bank[l]
+
+        def word_of(r, pick):
+            word = Const(0, 32)
+            any_bit = False
+            for f in r.fields:
+                v = pick((r.name, r.channel, f.name), f)
+                if v is not None:
+                    word = word | (v.as_unsigned() << f.lsb)
+                    any_bit = True
+            return word[:32] if any_bit else None
+
+        def stored(key, f):
+            if key in storage:
+                return storage[key]
+            if f.access == "ro" and key not in hooks_mirror and key not in hooks_status:
+                return Const(f.reset, f.width)
+            return None
+
+        parts = [(self._write_delay, stored),
+                 (self._mirror_delay, lambda key, f: hooks_mirror.get(key)),
+                 (self._status_delay, lambda key, f: hooks_status.get(key))]
+        end = self.read_latency - 1
+        results = []
+        for delay, pick in parts:
+            words = [(r.addr, word_of(r, pick)) for r in rmap.registers]
+            words = [(a, w) for a, w in words if w is not None]
+            if not words:
+                continue
+            results.append(self._select(m, stage, delay, words, end))
+        m.d.sync += [bus.r_valid.eq(stage[end].valid & ~stage[end].write),
+                     bus.r_data.eq(0)]
+        with m.If(stage[end].valid & ~stage[end].write):
+            acc = Const(0, 32)
+            for r in results:
+                acc = acc | r
+            m.d.sync += bus.r_data.eq(acc)
         return m
+
+    def _select(self, m, stage, delay, words, end):
+        """The word of the register a read addresses, sampled at stage
+        ``delay``: groups of registers selected into registers at that stage,
+        then the group, registered, then delayed to stage ``end``. 0 when the
+        read addresses none of ``words``."""
+        st = stage[delay]
+        group = 16
+        groups = [words[k:k + group] for k in range(0, len(words), group)]
+        firsts = []
+        for g, items in enumerate(groups):
+            v = Signal(32, name=f"rd{delay}_{g}")
+            sel = Const(0, 32)
+            for addr, w in items:
+                sel = sel | Mux(st.addr == addr, w, 0)
+            m.d.sync += v.eq(sel)
+            firsts.append(v)
+        second = Signal(32, name=f"rd{delay}_all")
+        m.d.sync += second.eq(_or(firsts))
+        out = second
+        for k in range(delay + 2, end):
+            nxt = Signal(32, name=f"rd{delay}_d{k}")
+            m.d.sync += nxt.eq(out)
+            out = nxt
+        return out
+
+
+def _or(values):
+    acc = values[0]
+    for v in values[1:]:
+        acc = acc | v
+    return acc

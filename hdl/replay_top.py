@@ -1,19 +1,17 @@
-"""The wind-farm replay block of seed Fig. 2.2: N channels, one output."""
+"""The wind-farm replay block of seed Fig. 2.2 as a time-multiplexed engine."""
 
-from amaranth.hdl import Module, Signal, Mux, Cat, signed
+from amaranth.hdl import Module, Signal, Mux, Cat, Const, signed
 from amaranth.lib import wiring, stream, data
+from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
-from .cmult import ComplexMultiplier
+from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
-from .stream_replay import StreamReplay, FETCH_TAG
 from .stream_pool import StreamPool
-from .registers import BusSignature, RegisterFile
-from .ecp5_primitives import RegisteredMultiplier
-from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, STREAM_WIDTH, OUTPUT_WIDTH,
-                                PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, POOL_FETCH_LATENCY,
-                                sum_latency)
+from .registers import BusSignature, RegisterFile, channel_regs_layout
+from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG,
+                                POOL_FETCH_CYCLES, write_staging, tree_levels)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
 
@@ -22,22 +20,27 @@ __all__ = ["WindFarmReplay"]
 
 class WindFarmReplay(wiring.Component):
     """Replay block: a common delay line, then per channel a tap of the delay
-    window, stream x gain; an adder tree, saturation. The streams sit in one
-    pool, fetched into per-channel caches by a scan.
+    window, stream x gain; the sum, saturated. The streams sit in one pool,
+    fetched into per-channel caches by a scan.
 
-    The data path advances once per accepted input sample; each input sample
-    gives exactly one output sample, ``latency`` (plus COMMON_DELAY and the
-    channel's DELAY) samples later, whatever the gaps in ``i.valid`` or
-    ``o.ready``. Each channel's window is its own RAM copy (written with the
-    common line's output, read at the channel's tap), so any number of
-    channels may share a tap.
+    Time-multiplexed: the fabric clock runs ``slots`` = M clocks per sample;
+    ``pipelines`` = ceil(N / M) pipelines (:class:`ChannelPipeline`) serve M
+    channels each, one per clock. An input sample is accepted only in a
+    period's first clock (``i.ready`` is high there when the output FIFO has
+    room); a period without one is a bubble. Each accepted input sample gives
+    exactly one output sample, computed from that step alone (``latency`` L,
+    the delay lines' lags, plus COMMON_DELAY and the channel's DELAY, in
+    samples), whatever the gaps in ``i.valid`` or ``o.ready``: the output
+    leaves through a FIFO ``output_cycles`` + 1 clocks after its input.
+    Register accesses are taken (``bus.ready``) once per period so that a
+    write between two steps lands between them for every channel.
     Bit-exact model: :class:`rast.model.datapath.ReplayModel`.
 
     Parameters
     ----------
     channels : int
-        N, 1 to 64.
-    pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz :
+        N, 1 to ReplayContract.MAX_CHANNELS.
+    slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz :
         See :class:`rast.model.fixedpoint.ReplayContract`.
     init : list of ChannelInit, optional
         Power-up streams (in the pool at their bases) and register values.
@@ -52,13 +55,16 @@ class WindFarmReplay(wiring.Component):
         Register access (map: ``rast.model.regmap``, ``docs/registers.md``).
     overflow : Out(1)
         Sticky saturation flag (cleared by reading STATUS).
+    slot : Out(range(slots))
+        The slot counter: 0 in a period's first clock (the board's converter
+        clocks are made from it).
     """
 
-    def __init__(self, channels=4, *, pool_words=ReplayContract.pool_words,
+    def __init__(self, channels=4, *, slots=1, pool_words=ReplayContract.pool_words,
                  max_delay=ReplayContract.max_delay, max_tap=ReplayContract.max_tap,
                  interpolation="fir", cmult_form="4mult", sample_rate_hz=0, init=None,
                  init_common_delay=0):
-        self._contract = ReplayContract(channels=channels, pool_words=pool_words,
+        self._contract = ReplayContract(channels=channels, slots=slots, pool_words=pool_words,
                                         max_delay=max_delay, max_tap=max_tap,
                                         interpolation=interpolation, cmult_form=cmult_form,
                                         sample_rate_hz=sample_rate_hz)
@@ -80,6 +86,7 @@ class WindFarmReplay(wiring.Component):
             "o": Out(stream.Signature(IQ(OUTPUT_WIDTH))),
             "bus": In(BusSignature(self._rmap.addr_width)),
             "overflow": Out(1),
+            "slot": Out(range(max(2, slots))),
         })
 
     @property
@@ -101,123 +108,158 @@ class WindFarmReplay(wiring.Component):
 
     @property
     def latency(self):
-        """Fixed latency L (samples): ``6 + cmult latency + 2 + sum_latency(N)``."""
+        """Fixed latency L in samples (``ReplayContract.latency``)."""
         return self._contract.latency
+
+    @property
+    def fifo_depth(self) -> int:
+        """Output FIFO words: every sample accepted and not yet taken from ``o``."""
+        c = self._contract
+        return -(-(c.output_cycles + 2) // c.slots) + 2
+
+    def _slot_inits(self, p):
+        c, rmap = self._contract, self._rmap
+        out = []
+        for s in range(c.slots):
+            ch = p * c.slots + s
+            if ch >= c.channels:
+                out.append(SlotInit(False, c.min_stream_length, 0, 0))
+                continue
+            out.append(SlotInit(True, rmap.reg("LENGTH", ch).field("length").reset,
+                                rmap.reg("PHASE_INC", ch).field("inc").reset,
+                                rmap.reg("BASE", ch).field("base").reset))
+        return out
 
     def elaborate(self, platform):
         m = Module()
         c = self._contract
-        N = c.channels
-        m.submodules.regs = regs = RegisterFile(self._rmap)
+        N, M, P = c.channels, c.slots, c.pipelines
+        Sw = write_staging(M)
+        b0 = 0 if M == 1 else 1                       # a pipeline's update stage
+        K = c.output_cycles
+        regs_layout = channel_regs_layout(self._rmap)
+
+        # ---- the slot counter and the input ------------------------------------
+        slot = self.slot
+        if M > 1:
+            m.d.sync += slot.eq(Mux(slot == M - 1, 0, slot + 1))
+        start = Signal()
+        m.d.comb += start.eq(slot == 0)
+        F = self.fifo_depth
+        in_flight = Signal(range(F + 1))
+        accept = Signal()
+        out_taken = Signal()
+        m.d.comb += [self.i.ready.eq(start & (in_flight < F)),
+                     accept.eq(self.i.valid & self.i.ready),
+                     out_taken.eq(self.o.valid & self.o.ready)]
+        m.d.sync += in_flight.eq(in_flight + accept - out_taken)
+
+        # ---- registers ---------------------------------------------------------
+        status_delay = K + 1 + Sw
+        m.submodules.regs = regs = RegisterFile(self._rmap, write_delay=Sw,
+                                                mirror_delay=2 + b0 + Sw, status_delay=status_delay)
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
-        m.d.comb += self.overflow.eq(regs.overflow)
+        m.d.comb += [self.overflow.eq(regs.overflow), regs.take.eq(slot == (M - 1 - Sw) % M)]
 
-        ce = Signal()
-        m.d.comb += [self.i.ready.eq(~self.o.valid | self.o.ready),
-                     ce.eq(self.i.valid & self.i.ready)]
-        with m.If(ce):
-            m.d.sync += self.o.valid.eq(1)
-        with m.Elif(self.o.ready):
-            m.d.sync += self.o.valid.eq(0)
+        # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
+        # Written with x[n] in the period's second clock, read (address in its
+        # first clock) so that c[n] is out three clocks after the period starts.
+        m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
+        assert common.depth == c.common_depth and common.latency == 3
+        cnt = Signal(range(c.common_depth))
+        x_q = Signal(2 * INPUT_WIDTH)
+        w_en = Signal()
+        w_index = Signal.like(cnt)
+        m.d.sync += [x_q.eq(self.i.payload.as_value()), w_en.eq(accept), w_index.eq(cnt)]
+        with m.If(accept):
+            m.d.sync += cnt.eq(cnt + 1)
+        m.d.comb += [common.w_en.eq(w_en), common.w_index.eq(w_index), common.w_data.eq(x_q),
+                     common.r_index.eq(cnt), common.r_delay.eq(regs.common_delay)]
 
-        # The pool: host writes from the register file; fetches from a scan
-        # that offers each channel in turn one request per clock (one-hot
-        # ``scan``), registered, and answers broadcast to the channels,
-        # registered, with the channel in the tag.
-        fetch_tag = data.StructLayout({"fetch": FETCH_TAG, "channel": range(max(2, N))})
-        m.submodules.pool = pool = StreamPool(c.pool_words, fetch_tag.size, init=self._pool_init)
+        # ---- the pool and the fetch scan -----------------------------------------
+        ptag = fetch_tag_layout(M)
+        pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
+        m.submodules.pool = pool = StreamPool(c.pool_words, pool_tag.size, init=self._pool_init)
         m.d.comb += [pool.w_en.eq(regs.wr_en), pool.w_addr.eq(regs.wr_addr), pool.w_data.eq(regs.wr_data)]
-        scan = Signal(N, init=1)
-        m.d.sync += scan.eq(scan.rotate_left(1))
+        # One pipeline's slots are offered a fetch per period, pipelines in turn.
+        scan = Signal(P, init=1)
+        with m.If(start):
+            m.d.sync += scan.eq(scan.rotate_left(1))
         req_valid = Signal()
         req_addr = Signal.like(pool.r_addr)
-        req_tag = Signal(fetch_tag)
-        fill_valid = Signal()
-        fill_tag = Signal(fetch_tag)
-        fill_data = Signal.like(pool.d_data)
+        req_tag = Signal(pool_tag)
         m.d.comb += [pool.r_valid.eq(req_valid), pool.r_addr.eq(req_addr), pool.r_tag.eq(req_tag)]
+        fill_valid = Signal()
+        fill_tag = Signal(pool_tag)
+        fill_data = Signal.like(pool.d_data)
         m.d.sync += [fill_valid.eq(pool.d_valid), fill_tag.eq(pool.d_tag), fill_data.eq(pool.d_data)]
-        # Grant to cache write: request register, the pool, answer register.
-        assert 1 + pool.latency + 1 <= POOL_FETCH_LATENCY, "the contract's fetch latency is too short"
-        grants = []
+        # grant (visit) -> pipeline's request register -> this register -> the
+        # pool -> fill_* -> the pipeline's fill register -> the cache
+        assert 4 + pool.latency + 1 <= POOL_FETCH_CYCLES, "the contract's fetch latency is too short"
 
+        # ---- the pipelines ---------------------------------------------------------
+        pipes = []
+        reqs = []
+        for p in range(P):
+            pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout)
+            m.submodules[f"pipe{p}"] = pl
+            pipes.append(pl)
+            m.d.comb += [pl.accept.eq(accept), pl.win_data.eq(common.o), pl.offer.eq(scan[p])]
+            for s in range(M):
+                ch = p * M + s
+                if ch < N:
+                    m.d.comb += [pl.regs[s].eq(regs.regs[ch]), regs.cmd_ack[ch].eq(pl.cmd_ack[s]),
+                                 regs.pending[ch].eq(pl.pending[s]), regs.bank[ch].eq(pl.bank[s])]
+            fe = Signal(name=f"fill_en{p}")
+            ft = Signal(ptag, name=f"fill_tag{p}")
+            fd = Signal.like(fill_data, name=f"fill_data{p}")
+            m.d.sync += [fe.eq(fill_valid & (fill_tag.pipe == p)), ft.eq(fill_tag.fetch), fd.eq(fill_data)]
+            m.d.comb += [pl.fill_en.eq(fe), pl.fill_tag.eq(ft), pl.fill_data.eq(fd)]
+            reqs.append(pl)
+        # Only the offered pipeline asks: the requests are ORed, registered.
+        rv, ra, rt = Const(0, 1), Const(0, len(req_addr)), Const(0, pool_tag.size)
+        for p, pl in enumerate(reqs):
+            tag = Cat(Const(p, len(req_tag.pipe)), pl.req_tag)
+            rv = rv | pl.req_valid
+            ra = ra | Mux(pl.req_valid, pl.req_addr, 0)
+            rt = rt | Mux(pl.req_valid, tag, 0)
+        m.d.sync += [req_valid.eq(rv), req_addr.eq(ra), req_tag.eq(rt)]
+
+        # ---- the sum over the pipelines, saturation, the output FIFO --------------
+        assert pipes[0].sum_cycles + tree_levels(P) + 2 == K
+        level = [pl.sum for pl in pipes]
         SW = c.sum_width
-        m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay)
-        m.d.comb += [common.en.eq(ce), common.i.eq(self.i.payload.as_value()),
-                     common.delay.eq(regs.common_delay)]
-        leaves = []
-        for l in range(N):
-            seg = DelayLine(2 * INPUT_WIDTH, c.max_tap)
-            # Power-up BASE, LENGTH and PHASE_INC as the register map clamps them.
-            sr = StreamReplay(c.pool_words, channels=N, interpolation=c.interpolation,
-                              init_base=self._rmap.reg("BASE", l).field("base").reset,
-                              init_length=self._rmap.reg("LENGTH", l).field("length").reset,
-                              init_increment=self._rmap.reg("PHASE_INC", l).field("inc").reset)
-            cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
-            m.submodules[f"seg{l}"] = seg
-            m.submodules[f"stream{l}"] = sr
-            m.submodules[f"cmult{l}"] = cm
-            m.d.comb += [
-                seg.en.eq(ce), seg.i.eq(common.o), seg.delay.eq(regs.delay[l]),
-                sr.en.eq(ce), sr.length.eq(regs.length[l]), sr.increment.eq(regs.increment[l]),
-                sr.base.eq(regs.base[l]),
-                sr.swap_req.eq(regs.swap_req[l]), sr.swap_force.eq(regs.swap_force[l]),
-                sr.fetch_grant.eq(scan[l]),
-                sr.fill_en.eq(fill_valid & (fill_tag.channel == l)),
-                sr.fill_tag.eq(fill_tag.fetch), sr.fill_data.eq(fill_data),
-                regs.pending_next[l].eq(sr.pending_next), regs.bank_next[l].eq(sr.bank_next),
-                cm.en.eq(ce), cm.a.eq(seg.o), cm.b.eq(sr.o),
-            ]
-            grant = Signal(name=f"grant{l}")
-            m.d.comb += grant.eq(scan[l] & sr.fetch_want)
-            with m.If(grant):
-                m.d.sync += [req_addr.eq(sr.fetch_addr), req_tag.fetch.eq(sr.fetch_tag),
-                             req_tag.channel.eq(l)]
-            grants.append(grant)
-
-            # Gain (0 when disabled): registered product, registered rounding.
-            geff = Signal(regs.gain[l].shape(), name=f"geff{l}")
-            m.d.comb += geff.eq(Mux(regs.enable[l], regs.gain[l], 0))
-            q = []
-            for part in ("re", "im"):
-                # The gain (unsigned) enters the signed multiplier with a zero sign bit.
-                mul = RegisteredMultiplier(cm.o_width, geff.shape().width + 1)
-                m.submodules[f"gmul{l}_{part}"] = mul
-                m.d.comb += [mul.en.eq(ce), mul.a.eq(getattr(cm.o, part)), mul.b.eq(geff)]
-                prod = mul.o
-                qv = Signal(signed(SCALED_WIDTH), name=f"q{l}_{part}")
-                with m.If(ce):
-                    m.d.sync += qv.eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
-                q.append(qv)
-            leaves.append(q)
-
-        m.d.sync += req_valid.eq(Cat(*grants).any())
-
-        # Adder tree: one registered level per halving (pairs added, an odd
-        # one registered alone), at least one level; sum_latency(N) in all.
-        level, depth = leaves, 0
-        while depth < sum_latency(N):
+        depth = 0
+        while len(level) > 1:
             nxt = []
             for j in range(0, len(level), 2):
                 pair = level[j:j + 2]
-                s = [Signal(signed(SW), name=f"sum{depth}_{j // 2}_{p}") for p in ("re", "im")]
-                with m.If(ce):
-                    m.d.sync += [s[k].eq(sum(v[k] for v in pair)) for k in range(2)]
-                nxt.append(s)
+                s_ = Signal(IQ(SW), name=f"tree{depth}_{j // 2}")
+                m.d.sync += [s_.re.eq(sum(v.re for v in pair)), s_.im.eq(sum(v.im for v in pair))]
+                nxt.append(s_)
             level, depth = nxt, depth + 1
-        assert len(level) == 1
-        chain = level[0]
-
+        total = level[0]
         lo, hi = -(1 << (OUTPUT_WIDTH - 1)), (1 << (OUTPUT_WIDTH - 1)) - 1
+        y = Signal(IQ(OUTPUT_WIDTH))
         sat = []
-        for k, part in enumerate(("re", "im")):
-            v = chain[k]
+        for part in ("re", "im"):
+            v = Signal(signed(SW), name=f"sum_{part}")
             over = Signal(name=f"over_{part}")
             under = Signal(name=f"under_{part}")
-            m.d.comb += [over.eq(v > hi), under.eq(v < lo)]
-            with m.If(ce):
-                m.d.sync += getattr(self.o.payload, part).eq(
-                    Mux(over, hi, Mux(under, lo, v)))
-            sat.append(over | under)
-        m.d.comb += regs.overflow_set.eq(ce & (sat[0] | sat[1]))
+            t = getattr(total, part)
+            m.d.sync += [v.eq(t), over.eq(t > hi), under.eq(t < lo)]
+            m.d.sync += getattr(y, part).eq(Mux(over, hi, Mux(under, lo, v)))
+            s_flag = Signal(name=f"sat_{part}")
+            m.d.sync += s_flag.eq(over | under)
+            sat.append(s_flag)
+        out_valid = accept
+        for k in range(K):
+            nv = Signal(name=f"out_valid{k + 1}")
+            m.d.sync += nv.eq(out_valid)
+            out_valid = nv
+        m.d.comb += regs.overflow_set.eq(out_valid & (sat[0] | sat[1]))
+        m.submodules.ofifo = fifo = SyncFIFO(width=2 * OUTPUT_WIDTH, depth=F)
+        m.d.comb += [fifo.w_en.eq(out_valid), fifo.w_data.eq(y.as_value()),
+                     self.o.valid.eq(fifo.r_rdy), self.o.payload.eq(fifo.r_data),
+                     fifo.r_en.eq(self.o.ready)]
         return m

@@ -4,29 +4,29 @@ Integer numpy (int64) throughout. Time is counted in *steps*: step ``n`` is the
 ``n``-th accepted input sample, and output sample ``n`` is the one the block
 emits for it (one out per one in, whatever the gaps in ``valid``). A register
 write issued after step ``n-1`` was accepted and before step ``n`` is accepted
-takes effect at step ``n`` (in the gateware: a write in the same clock cycle
-as an input transfer counts as after that transfer).
+takes effect at step ``n`` (in the gateware: a write taken from the bus in the
+same clock cycle as an input transfer counts as after that transfer); a read
+there returns the state after step ``n-1``.
 
-Equations (N channels, l = 0..N-1, all values visible *during* a step):
+Equations (N channels, l = 0..N-1, every value as applied at step n; the
+fixed-point contract ``rast.model.fixedpoint``, "The time-multiplexed engine"):
 
-* common delay line and window: ``c[n] = x[n - 3 - d_c[n-3]]``,
-  ``t_l[n] = c[n - 3 - d_l[n-3]]`` (``SEGMENT_LATENCY`` = 3; ``d_c`` the applied
-  COMMON_DELAY, ``d_l`` the applied DELAY, the tap, of channel l),
-* stream word at the multiplier: ``w_l[n] = word(state_l[n - SL])``
-  (SL = :func:`~rast.model.fixedpoint.stream_latency`),
-* ``p_l[n] = cmult(t_l[n - Lc], w_l[n - Lc])``, ``q_l[n] = gain(p_l[n-2], g_l[n-2])``
+* common delay line and window: ``c[n] = x[n - COMMON_LAG - d_c[n]]``,
+  ``t_l[n] = c[n - WINDOW_LAG - d_l[n]]`` (``d_c`` the applied COMMON_DELAY,
+  ``d_l`` the applied DELAY, the tap, of channel l),
+* stream word ``w_l[n] = word(state_l[n])``, the phase held during step n,
+* ``p_l[n] = cmult(t_l[n], w_l[n])``, ``q_l[n] = gain(p_l[n], g_l[n])``
   (``g_l`` = GAIN if enabled else 0),
-* adder tree ``s[n] = sum_l q_l[n - S]``, ``y[n] = saturate(s[n])``
-  (S = :func:`~rast.model.fixedpoint.sum_latency`, its registered levels).
+* ``y[n] = saturate(sum_l q_l[n])``.
 
 Hence an echo of channel l appears ``L + d_c + d_l`` samples after the input,
-``L = 6 + Lc + 2 + S``. Everything before step 0 is zero.
+``L = COMMON_LAG + WINDOW_LAG``. Everything before step 0 is zero.
 """
 
 import numpy as np
 
 from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
-                         INTERP_FRAC_BITS, PHASE_FRAC_BITS, SEGMENT_LATENCY, GAIN_LATENCY, sum_latency,
+                         INTERP_FRAC_BITS, PHASE_FRAC_BITS, COMMON_LAG, WINDOW_LAG,
                          STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
                          FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate, pack_iq, unpack_iq)
 from .regmap import register_map
@@ -101,20 +101,15 @@ def phase_sequence(start, inc, length, n):
     return (int(start) + k * int(inc)) % (int(length) * ONE)
 
 
-def delay_line(x, d, latency=SEGMENT_LATENCY):
-    """One delay segment: ``out[n] = x[n - latency - d[n - latency]]``, zeros before 0.
-
-    ``d`` is the per-step applied delay (array as long as ``x``)."""
+def delay_line(x, d, lag):
+    """A delay line read at a tap that may change: ``out[n] = x[n - lag - d[n]]``,
+    zeros before 0. ``d`` is the per-step applied delay (as long as ``x``)."""
     x = np.asarray(x, dtype=np.int64)
     d = np.asarray(d, dtype=np.int64)
-    n = np.arange(len(x))
+    src = np.arange(len(x)) - lag - d
     out = np.zeros_like(x)
-    ok = n >= latency
-    src = n[ok] - latency - d[n[ok] - latency]
     good = src >= 0
-    vals = np.zeros(ok.sum(), dtype=np.int64)
-    vals[good] = x[src[good]]
-    out[ok] = vals
+    out[good] = x[src[good]]
     return out
 
 
@@ -122,14 +117,6 @@ def channel_sum(q, width=OUTPUT_WIDTH):
     """Sum of per-channel scaled products ``q`` (shape N x T, already aligned),
     saturated; returns (y, overflow per step)."""
     return saturate(np.sum(np.asarray(q, dtype=np.int64), axis=0), width)
-
-
-def _shift(a, k):
-    """``a[n - k]`` with zeros for ``n < k``."""
-    out = np.zeros_like(a)
-    if k < len(a):
-        out[k:] = a[:len(a) - k] if k > 0 else a
-    return out
 
 
 class ReplayModel:
@@ -176,7 +163,7 @@ class ReplayModel:
         self._g = [np.zeros((N, 0), dtype=np.int64)]
         self._w = [np.zeros((N, 2, 0), dtype=np.int64)]
         self._base = 0
-        self._lookback = 2 * c.latency + c.stream_latency + 16 + c.max_delay + c.max_tap
+        self._lookback = c.latency + 16 + c.max_delay + c.max_tap
 
     # ---- registers -------------------------------------------------------
     def _swap(self, l):
@@ -334,19 +321,13 @@ class ReplayModel:
         self._base += keep
         self._x, self._d, self._g, self._w = [x], [d], [g], [w]
         n0, n1 = n0 - self._base, n1 - self._base
-        SL, Lc = c.stream_latency, c.cmult_latency
-        common = np.stack([delay_line(x[0], d[N]), delay_line(x[1], d[N])])
-        k = sum_latency(N)
+        common = np.stack([delay_line(x[0], d[N], COMMON_LAG), delay_line(x[1], d[N], COMMON_LAG)])
         total = np.zeros((2, n1), dtype=np.int64)
         for l in range(N):
-            t = np.stack([delay_line(common[0], d[l]), delay_line(common[1], d[l])])
-            ws = np.stack([_shift(w[l, 0], SL), _shift(w[l, 1], SL)])
-            pi, pq = cmult(_shift(t[0], Lc), _shift(t[1], Lc), _shift(ws[0], Lc), _shift(ws[1], Lc))
-            gl = _shift(g[l], GAIN_LATENCY)
-            qi = gain_scale(_shift(pi, GAIN_LATENCY), gl)
-            qq = gain_scale(_shift(pq, GAIN_LATENCY), gl)
-            total[0] += _shift(qi, k)
-            total[1] += _shift(qq, k)
+            t = np.stack([delay_line(common[0], d[l], WINDOW_LAG), delay_line(common[1], d[l], WINDOW_LAG)])
+            pi, pq = cmult(t[0], t[1], w[l, 0], w[l, 1])
+            total[0] += gain_scale(pi, g[l])
+            total[1] += gain_scale(pq, g[l])
         yi, oi = saturate(total[0][n0:n1])
         yq, oq = saturate(total[1][n0:n1])
         return np.stack([yi, yq, (oi | oq).astype(np.int64)])

@@ -92,15 +92,17 @@ def unpack_iq(words, width=STREAM_WIDTH):
 
 import math as _math
 
+__all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "VISIT_CYCLES", "WORD_CYCLES",
+            "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "write_staging",
+            "tree_levels", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
             "FIR_LEAD", "FIR_KAISER_BETA", "FIR_CUTOFF", "FIR_COEF_WIDTH", "FIR_COEF_FRAC", "FIR_ACC_WIDTH", "FIR_MAX_INCREMENT",
             "FIR_MIN_LENGTH", "FIR_REFILL_SAMPLES", "CACHE_WORDS", "CACHE_GUARD_WORDS", "CACHE_FILL_WORDS",
-            "POOL_FETCH_LATENCY", "POOL_BANK_WORDS", "cache_need_words", "fetch_wait_samples", "pool_words_for", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
+            "POOL_BANK_WORDS", "cache_need_words", "fetch_wait_samples", "pool_words_for", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
             "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
-            "SEGMENT_LATENCY", "GAIN_LATENCY", "sum_latency",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
-            "cmult_latency", "stream_latency", "delay_depth", "ReplayContract",
+            "delay_depth", "ReplayContract",
             "DDR_INPUT_LATENCY", "DDR_OUTPUT_LATENCY", "BOARD_INPUT_LATENCY",
             "BOARD_OUTPUT_LATENCY", "BOARD_LATENCY", "TARGETS", "path_latency"]
 
@@ -131,9 +133,10 @@ INTERP_FRAC_BITS = 16
 #   (w = J >> FIR_PHASE_BITS, p = J mod FIR_PHASES), then the word at the
 #   multiplier is the linear step ``U[J] + round_half_up((U[J+1] - U[J])*f, 16)``
 #   with f the next 16 fraction bits (U wraps at FIR_PHASES*L). U is computed
-#   by one serial multiplier-accumulator per channel, one tap per sample, only
-#   when J advances; the increment is limited so that J advances at most once
-#   per FIR_MIN_SAMPLES_PER_STEP samples, which leaves the MAC time to finish.
+#   by one serial multiplier-accumulator per pipeline, one tap per visit of a
+#   channel's slot (once per sample), only when J advances; the increment is
+#   limited so that J advances at most once per FIR_MIN_SAMPLES_PER_STEP
+#   samples, which leaves the MAC time to finish (``mac_visits`` below).
 #   After every stream switch (and reset) the channel is muted, its phase
 #   held at 0, while its word cache is filled from the pool (see the pool
 #   section below) and then for FIR_REFILL_SAMPLES samples while U[0..2] are
@@ -154,8 +157,9 @@ FIR_COEF_WIDTH = 18
 FIR_COEF_FRAC = 16
 #: Accumulator of one U value: 16 x 18 bit products, FIR_TAPS of them.
 FIR_ACC_WIDTH = STREAM_WIDTH + FIR_COEF_WIDTH + (FIR_TAPS - 1).bit_length()
-#: Samples between two advances of J, at least: the serial MAC needs 19 from
-#: an advance to the next U value in its register.
+#: Samples between two advances of J, at least: the serial MAC needs
+#: ``mac_visits(slots)`` (at most 18) from an advance to the next U value in
+#: the channel's state.
 FIR_MIN_SAMPLES_PER_STEP = 24
 #: Largest PHASE_INC of a FIR build (5592405: stream rate <= sample rate / 768).
 FIR_MAX_INCREMENT = (1 << (PHASE_FRAC_BITS - FIR_PHASE_BITS)) // FIR_MIN_SAMPLES_PER_STEP
@@ -173,25 +177,27 @@ FIR_REFILL_SAMPLES = 48
 #
 # Channels do not read the pool per sample. Each keeps a cache of CACHE_WORDS
 # words, the next words of its stream in order (wrapping at LENGTH), filled by
-# a fetcher: a scan visits one channel per clock in turn and, if that channel
-# has room, reads its next word from the pool (POOL_FETCH_LATENCY clocks to
-# the cache). The consumer (the hold/linear read or the FIR's multiplier-
-# accumulator) reads only the cache. So the pool's read bandwidth is the sum
-# of the stream rates, and a second back end (external SDRAM) can serve the
-# same requests.
+# a fetcher: a scan offers, in each sample period, every slot of one
+# pipeline a fetch (pipelines in turn, so each channel once per
+# ``pipelines`` periods) and a channel with room reads its next word from the
+# pool (at most POOL_FETCH_CYCLES fabric clocks to the cache). The consumer
+# (the hold/linear read or the FIR's multiplier-accumulator) reads only the
+# cache. So the pool's read bandwidth is the sum of the stream rates, and a
+# second back end (external SDRAM) can serve the same requests.
 #
 # Room: a channel's cache holds CACHE_FILL_WORDS words from its consumer's
-# oldest needed word on; CACHE_GUARD_WORDS behind that are kept too (reads
-# still in the cache's read pipeline after a gap in the input). Needed at
-# once: 1 word (hold), 2 (linear), FIR_TAPS (fir).
+# oldest needed word on; CACHE_GUARD_WORDS behind that are kept too. Needed
+# at once: 1 word (hold), 2 (linear), FIR_TAPS (fir).
 #
 # After a switch (and reset) the cache is refilled from the new stream while
 # the channel is muted with its phase at 0: ``fetch_wait_samples`` samples
-# (each of the CACHE_FILL_WORDS words waits at most one scan of N clocks; one
-# clock per sample is the slowest case), then FIR_REFILL_SAMPLES more for the
-# FIR. Between switches a channel consumes at most one word per N samples
-# (the increment is limited accordingly), no faster than the scan refills, so
-# the words fetched ahead stay ahead.
+# (the visit after the switch restarts the fetcher; each of the
+# CACHE_FILL_WORDS words then waits at most one scan of ``pipelines``
+# periods; one period per sample is the slowest case), then
+# FIR_REFILL_SAMPLES more for the FIR. Between switches a channel consumes at
+# most one word per ``pipelines`` samples (the increment is limited
+# accordingly), no faster than the scan refills, so the words fetched ahead
+# stay ahead.
 # ---------------------------------------------------------------------------
 
 #: Words of each channel's cache (a power of two: positions wrap naturally).
@@ -202,10 +208,10 @@ CACHE_GUARD_WORDS = 3
 #: switch waits until this many have arrived, so that the consumer starts with
 #: every word it may need while the next ones are fetched.
 CACHE_FILL_WORDS = CACHE_WORDS - CACHE_GUARD_WORDS
-#: Clocks from the scan granting a fetch to the word in the cache, at most
-#: (request register, pool address register, read, output register, bank
-#: multiplexer register, response register; the hardware checks its own).
-POOL_FETCH_LATENCY = 6
+#: Fabric clocks from the scan granting a fetch to the word readable in the
+#: cache, at most (the gateware checks its own path against it:
+#: ``rast.hdl.replay_top``).
+POOL_FETCH_CYCLES = 16
 #: Words of one pool bank (on ECP5: 32 DP16KD of 16384 x 1; deeper pools are
 #: banks behind a registered multiplexer).
 POOL_BANK_WORDS = 16384
@@ -245,20 +251,96 @@ def fir_coefficients() -> tuple[tuple[int, ...], ...]:
     assert all(-lim <= v < lim for row in table for v in row)
     return tuple(table)
 
-#: Pipeline latency (in samples) of one delay line beyond its programmed
-#: delay: registered read address, block-RAM read, registered RAM output.
-#: A channel's input passes two: the common delay line, then its tap of the
-#: window line (see ``ReplayContract``).
-SEGMENT_LATENCY = 3
-#: Gain stage: registered product, registered rounding.
-GAIN_LATENCY = 2
+# ---------------------------------------------------------------------------
+# The time-multiplexed engine (``rast.hdl.replay_top``) and its schedule.
+#
+# The fabric clock runs ``slots`` = M clocks per RTS sample (M = f_clk / f_s;
+# M = 1 for a wide-band radar whose sample rate is the fabric's). A
+# free-running slot counter cuts time into *periods* of M clocks; period j
+# starts at the clock O(j) in which the counter is 0 and accepts an input
+# sample there if one is offered (else the period is a bubble: no step, no
+# output). Steps are counted as in the model: step n is the n-th accepted
+# input sample, and output sample n is computed from step n alone:
+#
+#   c[n]   = x[n - COMMON_LAG - d_c[n]]         the common delay line
+#   t_l[n] = c[n - WINDOW_LAG - d_l[n]]         channel l's tap of its window
+#   y[n]   = saturate(sum_l gain(cmult(t_l[n], w_l[n]), g_l[n]))
+#
+# (d_c, d_l, g_l, w_l as applied at step n). So the block's latency in steps
+# is L = COMMON_LAG + WINDOW_LAG, whatever M and N; the fabric clocks that
+# output n takes to leave the block (``engine_output_cycles``) are not seen
+# in the step count, only on a board (``board_latency``).
+#
+# Channel c = p*M + s is served by pipeline p in slot s: the channel's
+# registers are read (multiplexed by slot, registered) at O(j) + s, and its
+# state, kept in a ring of M registers per pipeline, is at the ring's head
+# at O(j) + s + VISIT_CYCLES, where it is updated (in one stage at M = 1, in
+# two at M >= 2) and its word, tap, product and gain follow a fixed pipeline.
+# Host writes land in the last clock of a period (they are taken from the
+# bus WRITE_STAGING(M) clocks earlier, ``rast.hdl.registers``), so a write
+# between steps n-1 and n is seen by every channel from step n on.
+# ---------------------------------------------------------------------------
+
+#: Common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY].
+COMMON_LAG = 1
+#: Each channel's window: t_l[n] = c[n - WINDOW_LAG - DELAY[l]].
+WINDOW_LAG = 1
+#: The block's latency L in samples (steps): an echo of channel l appears
+#: ``L + COMMON_DELAY + DELAY[l]`` samples after its input.
+BLOCK_LATENCY = COMMON_LAG + WINDOW_LAG
+#: Clocks from a slot's register read (period start + slot) to its visit.
+VISIT_CYCLES = 1
+#: Clocks from the visit to the stream word in its register (operands, the
+#: difference, the multiplier's input and output registers, the sum).
+WORD_CYCLES = 5
+#: Clocks from the operands to the rounded complex product, per form: the
+#: multipliers' input and output registers, the products in fabric, the
+#: difference/sum, the rounding (3mult: one more for the pre-additions).
+CMULT_CYCLES = {"4mult": 5, "3mult": 6}
+#: Clocks from the rounded product to the rounded gain product (the
+#: multiplier's input and output registers, the rounding).
+GAIN_CYCLES = 3
+#: Clocks from the visit to the FIR MAC's rounded, saturated U value (cache and
+#: coefficient read, multiplier in and out, accumulate, round, saturate).
+MAC_RESULT_CYCLES = 6
 
 
-def sum_latency(channels: int) -> int:
-    """Registered levels of the adder tree over the channels' scaled products:
-    ``max(1, ceil(log2 N))`` (pairs are added per level, an odd one passes
-    through a register)."""
-    return max(1, (channels - 1).bit_length())
+def write_staging(slots: int) -> int:
+    """Clocks between a host write taken from the bus and the clock in which
+    it lands (the last clock of a period): 0 at M = 1, else up to 2 (the
+    decode is registered)."""
+    return min(2, slots - 1)
+
+
+def tree_levels(pipelines: int) -> int:
+    """Registered levels of the adder tree over the pipelines' period sums."""
+    return (pipelines - 1).bit_length()
+
+
+def mac_merge_cycles(slots: int) -> int:
+    """Clocks from a tap's visit to the clock in which its U value enters the
+    channel's state: MAC_RESULT_CYCLES, rounded up to the ring's update
+    stage (one stage at M = 1, the second of two at M >= 2)."""
+    if slots == 1:
+        return MAC_RESULT_CYCLES
+    k = -(-(MAC_RESULT_CYCLES - 1) // slots)
+    return 1 + k * slots
+
+
+def mac_visits(slots: int) -> int:
+    """Visits of a channel from a J advance to the new U value in its state:
+    the job's start, FIR_TAPS taps, the last tap's merge."""
+    return 1 + FIR_TAPS + -(-mac_merge_cycles(slots) // slots)
+
+
+def engine_output_cycles(slots: int, pipelines: int, cmult_form: str = "4mult") -> int:
+    """Clocks from the clock that accepts input n to the clock in which output
+    n is in the saturation register (it enters the output FIFO at the next
+    edge): the last slot's visit, word, complex product, gain, slot
+    accumulator, adder tree, saturation flags and clip."""
+    return ((slots - 1) + VISIT_CYCLES + WORD_CYCLES + CMULT_CYCLES[cmult_form] + GAIN_CYCLES
+            + 1 + tree_levels(pipelines) + 2)
+
 
 CMULT_FORMS = ("4mult", "3mult")
 
@@ -313,6 +395,16 @@ BOARD_LATENCY = BOARD_INPUT_LATENCY + BOARD_OUTPUT_LATENCY
 TARGETS = ("board", "block")
 
 
+def board_latency(contract: "ReplayContract") -> int:
+    """Samples from the ADC pins' sample to the DAC pins' sample of the board
+    top (``rast.gateware.top``) at zero programmed delay: the block's L, the
+    board's I/O stages, and the clocks output n spends inside the engine
+    (``engine_output_cycles`` and the output FIFO's one), rounded up to whole
+    samples, which the board sees and a step count does not."""
+    transport = -(-(contract.output_cycles + 1) // contract.slots)
+    return BOARD_LATENCY + contract.latency + transport
+
+
 def path_latency(block_latency: int, target: str, adc_latency: int = 0, dac_latency: int = 0) -> int:
     """Fixed samples between a sample and its echo at zero programmed delay.
 
@@ -350,24 +442,9 @@ def saturate(v, width: int = OUTPUT_WIDTH):
     return np.clip(v, lo, hi), (v < lo) | (v > hi)
 
 
-def cmult_latency(form: str) -> int:
-    """Samples from the complex multiplier's inputs to its rounded output."""
-    return {"4mult": 3, "3mult": 4}[form]
-
-
 def _check_interpolation(interpolation):
     if interpolation not in INTERPOLATIONS:
         raise ValueError(f"Interpolation must be one of {', '.join(INTERPOLATIONS)}, not {interpolation!r}")
-
-
-def stream_latency(interpolation: str) -> int:
-    """Samples from the phase register to the stream word at the multiplier.
-
-    hold: read address register, block RAM read, block RAM output register;
-    linear: those and three interpolation stages; fir: the U registers are
-    ready with the phase, then difference, product and sum (three stages)."""
-    _check_interpolation(interpolation)
-    return {"hold": 3, "linear": 6, "fir": 3}[interpolation]
 
 
 def pool_words_for(words: int) -> int:
@@ -383,29 +460,28 @@ def cache_need_words(interpolation: str) -> int:
     return {"hold": 1, "linear": 2, "fir": FIR_TAPS}[interpolation]
 
 
-def fetch_wait_samples(channels: int) -> int:
+def fetch_wait_samples(pipelines: int, slots: int = 1) -> int:
     """Samples after a switch by which CACHE_FILL_WORDS words are in the cache,
-    at one clock per sample (gaps in the input only give the fetcher more
-    clocks): each waits at most one scan of ``channels`` clocks, the last one
-    POOL_FETCH_LATENCY more, plus the clock that restarts the fetcher and one
-    to spare."""
-    return CACHE_FILL_WORDS * channels + POOL_FETCH_LATENCY + 2
+    at one period per sample (bubbles only give the fetcher more periods): the
+    visit that restarts the fetcher, then each word at most one scan of
+    ``pipelines`` periods, the last POOL_FETCH_CYCLES more, and one to spare."""
+    return 1 + CACHE_FILL_WORDS * pipelines + -(-POOL_FETCH_CYCLES // slots) + 1
 
 
-def refill_samples(interpolation: str, channels: int = 1) -> int:
+def refill_samples(interpolation: str, pipelines: int = 1, slots: int = 1) -> int:
     """Samples a channel is muted (phase held at 0) after a switch or reset:
     the cache fill, then (FIR) the first three U values."""
     _check_interpolation(interpolation)
     extra = FIR_REFILL_SAMPLES if interpolation == "fir" else 0
-    return fetch_wait_samples(channels) + extra
+    return fetch_wait_samples(pipelines, slots) + extra
 
 
-def max_phase_increment(interpolation: str, channels: int = 1) -> int:
+def max_phase_increment(interpolation: str, pipelines: int = 1) -> int:
     """Largest PHASE_INC the block accepts (larger values are clamped): the
     FIR's MAC limit, and for every interpolation at most one word per
-    ``channels`` samples (what the fetch scan supplies)."""
+    ``pipelines`` samples (what the fetch scan supplies)."""
     _check_interpolation(interpolation)
-    scan = ((1 << PHASE_FRAC_BITS) - 1) // channels
+    scan = ((1 << PHASE_FRAC_BITS) - 1) // pipelines
     return min(FIR_MAX_INCREMENT, scan) if interpolation == "fir" else scan
 
 
@@ -428,7 +504,11 @@ class ReplayContract:
     Parameters
     ----------
     channels : int
-        Number of windmill channels N (1 to 64).
+        Number of windmill channels N (1 to MAX_CHANNELS).
+    slots : int
+        M, fabric clocks per RTS sample: each pipeline serves M channels, one
+        per clock (``pipelines`` = ceil(N / M) of them). 1 for a radar whose
+        sample rate is the fabric clock.
     pool_words : int
         Words of the stream pool, shared by all channels' streams: a power
         of two from 16 to POOL_BANK_WORDS, or a multiple of POOL_BANK_WORDS.
@@ -437,9 +517,9 @@ class ReplayContract:
         line every channel shares, up to the nearest turbine.
     max_tap : int
         Largest programmable tap (DELAY of every channel), samples: each
-        channel reads the common line's output this many samples later, from
-        its own copy of the window line, so a farm may be ``max_tap`` samples
-        deep and any number of channels may share a tap.
+        channel reads the common line's output this many samples later from
+        its pipeline's copy of the window line, so a farm may be ``max_tap``
+        samples deep and any number of channels may share a tap.
     interpolation : str
         ``"fir"`` (default, images below -70 dB), ``"linear"`` or ``"hold"``
         (see the interpolation section above).
@@ -450,6 +530,7 @@ class ReplayContract:
         not stated (simulation). It changes no arithmetic.
     """
     channels: int = 4
+    slots: int = 1
     pool_words: int = 65536
     max_delay: int = 4094
     max_tap: int = 1022
@@ -458,8 +539,12 @@ class ReplayContract:
     sample_rate_hz: int = 0
 
     #: Keys of :meth:`to_dict` that are constructor parameters.
-    PARAMETERS = ("channels", "pool_words", "max_delay", "max_tap", "interpolation",
+    PARAMETERS = ("channels", "slots", "pool_words", "max_delay", "max_tap", "interpolation",
                   "cmult_form", "sample_rate_hz")
+    #: Most channels a block may have (the CONFIG register's 8-bit field).
+    MAX_CHANNELS = 255
+    #: Most slots per pipeline.
+    MAX_SLOTS = 64
 
     def __post_init__(self):
         def posint(name, what, v, lo=1, hi=None):
@@ -471,7 +556,8 @@ class ReplayContract:
                 raise ValueError(f"{what} must be {kind}, not {v!r}")
             if hi is not None and v > hi:
                 raise ValueError(f"{what} must be at most {hi}, not {v!r}")
-        posint("channels", "Channel count", self.channels, 1, 64)
+        posint("channels", "Channel count", self.channels, 1, self.MAX_CHANNELS)
+        posint("slots", "Slots per pipeline", self.slots, 1, self.MAX_SLOTS)
         posint("pool_words", "Pool words", self.pool_words, 16, 1 << 20)
         w = self.pool_words
         if not (w % POOL_BANK_WORDS == 0 if w > POOL_BANK_WORDS else not w & (w - 1)):
@@ -489,9 +575,10 @@ class ReplayContract:
         follows from them (``report.json``'s ``build``, read by ``rast stream
         --build``)."""
         return {**{k: getattr(self, k) for k in self.PARAMETERS},
+                "pipelines": self.pipelines,
+                "clock_hz": self.clock_hz,
                 "latency_samples": self.latency,
                 "board_latency_samples": self.board_latency,
-                "stream_latency_samples": self.stream_latency,
                 "max_phase_increment": self.max_phase_increment,
                 "min_stream_length": self.min_stream_length,
                 "refill_samples": self.refill_samples}
@@ -502,6 +589,17 @@ class ReplayContract:
         return cls(**{k: d[k] for k in cls.PARAMETERS if k in d})
 
     @property
+    def pipelines(self) -> int:
+        """P = ceil(N / M): the physical pipelines (each with its multipliers,
+        window copy and word cache)."""
+        return -(-self.channels // self.slots)
+
+    @property
+    def clock_hz(self) -> int:
+        """The fabric clock: ``slots`` x ``sample_rate_hz`` (0 when the rate is not stated)."""
+        return self.slots * self.sample_rate_hz
+
+    @property
     def guard_bits(self) -> int:
         return guard_bits(self.channels)
 
@@ -510,20 +608,12 @@ class ReplayContract:
         return sum_width(self.channels)
 
     @property
-    def cmult_latency(self) -> int:
-        return cmult_latency(self.cmult_form)
-
-    @property
-    def stream_latency(self) -> int:
-        return stream_latency(self.interpolation)
-
-    @property
     def refill_samples(self) -> int:
-        return refill_samples(self.interpolation, self.channels)
+        return refill_samples(self.interpolation, self.pipelines, self.slots)
 
     @property
     def max_phase_increment(self) -> int:
-        return max_phase_increment(self.interpolation, self.channels)
+        return max_phase_increment(self.interpolation, self.pipelines)
 
     @property
     def pool_address_width(self) -> int:
@@ -541,19 +631,22 @@ class ReplayContract:
 
     @property
     def latency(self) -> int:
-        """Fixed latency L: an echo of channel l appears ``L + COMMON_DELAY +
-        DELAY[l]`` samples after its input sample. ``L = 2*3 + cmult_latency
-        + 2 + sum_latency(N)`` (two delay lines, the complex product, the gain,
-        the adder tree)."""
-        return (2 * SEGMENT_LATENCY + self.cmult_latency + GAIN_LATENCY
-                + sum_latency(self.channels))
+        """Fixed latency L in samples: an echo of channel l appears ``L +
+        COMMON_DELAY + DELAY[l]`` samples after its input (BLOCK_LATENCY)."""
+        return BLOCK_LATENCY
+
+    @property
+    def output_cycles(self) -> int:
+        """Fabric clocks from accepting input n to output n in the saturation
+        register (:func:`engine_output_cycles`)."""
+        return engine_output_cycles(self.slots, self.pipelines, self.cmult_form)
 
     @property
     def board_latency(self) -> int:
         """Samples from the ADC pins' sample to the DAC pins' sample on the
-        board top at zero programmed delay: ``L + BOARD_LATENCY`` (converters
-        not included, see :func:`path_latency`)."""
-        return self.latency + BOARD_LATENCY
+        board top at zero programmed delay (converters not included, see
+        :func:`path_latency`)."""
+        return board_latency(self)
 
     @property
     def common_depth(self) -> int:
@@ -562,7 +655,7 @@ class ReplayContract:
 
     @property
     def window_depth(self) -> int:
-        """Words of each channel's window RAM (power of two >= max_tap + 2)."""
+        """Words of each pipeline's window RAM (power of two >= max_tap + 2)."""
         return delay_depth(self.max_tap)
 
     @property

@@ -18,8 +18,7 @@ Access kinds of a field:
 
 from dataclasses import dataclass, field
 
-from .fixedpoint import (ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS,
-                         SEGMENT_LATENCY, GAIN_LATENCY, sum_latency)
+from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS
 from .powerup import ChannelInit
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
@@ -107,7 +106,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
     inits = list(inits or [])
     inits += [ChannelInit()] * (c.channels - len(inits))
     interp_code = INTERPOLATIONS.index(c.interpolation)
-    config = c.channels | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
+    config = (c.channels | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
+              | (c.slots << 16))
     regs = [
         Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
                  "identification"),
@@ -115,7 +115,9 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                   Field("interpolation", 8, 2, "ro", interp_code,
                                         "stream interpolation: 0 hold, 1 linear, 2 FIR"),
                                   Field("cmult3", 10, 1, "ro", int(c.cmult_form == "3mult"),
-                                        "1: 3-multiplier complex product")),
+                                        "1: 3-multiplier complex product"),
+                                  Field("slots", 16, 7, "ro", c.slots,
+                                        "M: fabric clocks per sample, channels per pipeline")),
                  f"elaboration parameters (reads {config:#x} here)"),
         Register("LATENCY", 0x02, (Field("latency", 0, 16, "ro", c.latency,
                                          "fixed latency L in samples"),),
@@ -160,7 +162,7 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
         regs += [
             Register("CTRL", base + 0, (
                 Field("enable", 0, 1, "rw", int(ini.enable), "channel contributes to the sum; "
-                      f"written before input k, from output k + {GAIN_LATENCY + sum_latency(c.channels)}"),
+                      "written before input k, from output k"),
                 Field("swap", 1, 1, "wo", 0,
                       "write 1: switch to BASE/LENGTH/PHASE_INC at the next period boundary (at once "
                       "if the write leaves the channel disabled); reads 1 while pending"),
@@ -175,14 +177,13 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                                    min(ini.phase_increment & ((1 << PHASE_FRAC_BITS) - 1), c.max_phase_increment),
                                                    "stream words per sample * 2**32 for the next switch "
                                                    f"(0..{c.max_phase_increment}); output n plays the "
-                                                   f"phase of input step n - L + {2 * SEGMENT_LATENCY} - SL",
+                                                   "phase held during step n",
                                                    clamp=(0, c.max_phase_increment)),),
                      "latched into the stream at the switch", ch),
             Register("GAIN", base + 3, (Field("gain", 0, GAIN_WIDTH, "rw", ini.gain,
                                               "gain, unsigned, 16 fractional bits; written before "
-                                              f"input k, from output k + {GAIN_LATENCY + sum_latency(c.channels)}"),),
-                     f"written before input k: from output k + {GAIN_LATENCY + sum_latency(c.channels)} "
-                     "(docs/fixed_point.md, Alignment)", ch),
+                                              "input k, from output k"),),
+                     "written before input k: from output k (docs/fixed_point.md, Alignment)", ch),
             Register("DELAY", base + 4, (Field("delay", 0, _bits(maxd), "rw", min(ini.delay, maxd),
                                                f"tap of this channel in the window, samples (0..{maxd}), "
                                                "takes effect on APPLY", clamp=(0, maxd)),),

@@ -18,28 +18,33 @@ from rast.model.datapath import ReplayModel
 def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False):
     """Drive ``dut``; ``ops`` is a list of ``(at_step, "w"|"r", addr, value)``.
 
-    An op is issued in the first cycle in which at least ``at_step`` inputs
-    have been accepted (with ``hold``, no input is offered while an op is
-    due, so the op takes effect exactly at ``at_step``). Returns (yi, yq, done_ops) with done_ops a list of
-    ``(k, kind, addr, value_or_readback)`` in issue order.
+    An op is presented from the first cycle in which at least ``at_step``
+    inputs have been accepted and taken in the first cycle with ``bus.ready``
+    (with ``hold``, no input is offered while an op is due, so the op takes
+    effect exactly at ``at_step``). Returns (yi, yq, done_ops) with done_ops a
+    list of ``(k, kind, addr, value_or_readback)`` in issue order, ``k`` the
+    inputs accepted in cycles up to and including the one the op was taken in.
     """
     xi = [int(v) for v in xi]
     xq = [int(v) for v in xq]
     T = len(xi)
     ops = sorted(ops, key=lambda o: o[0])
     out_i, out_q, done = [], [], []
-    limit = max_cycles or (T * 8 + len(ops) * 4 + 200)
+    M = dut.contract.slots
+    limit = max_cycles or ((T + len(ops)) * M * 8 + 400)
 
     async def bench(ctx):
         vpat = itertools.cycle(valid)
         rpat = itertools.cycle(ready)
         n_in = 0
         op_i = 0
+        reads = []                 # indices into done of reads awaiting r_valid
         for cycle in range(limit):
-            if n_in >= T and len(out_i) >= T and op_i >= len(ops):
+            if n_in >= T and len(out_i) >= T and op_i >= len(ops) and not reads:
                 return
+            due = op_i < len(ops) and ops[op_i][0] <= n_in
             v = next(vpat) if n_in < T else 0
-            if hold and op_i < len(ops) and ops[op_i][0] <= n_in:
+            if hold and due:
                 v = 0
             r = next(rpat)
             ctx.set(dut.i.valid, v)
@@ -47,10 +52,8 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
                 ctx.set(dut.i.payload.re, xi[n_in])
                 ctx.set(dut.i.payload.im, xq[n_in])
             ctx.set(dut.o.ready, r)
-            op = None
-            if op_i < len(ops) and ops[op_i][0] <= n_in:
+            if due:
                 op = ops[op_i]
-                op_i += 1
                 ctx.set(dut.bus.addr, op[2])
                 ctx.set(dut.bus.w_stb, op[1] == "w")
                 ctx.set(dut.bus.w_data, op[3] if op[1] == "w" else 0)
@@ -59,26 +62,33 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
                 ctx.set(dut.bus.w_stb, 0)
                 ctx.set(dut.bus.r_stb, 0)
             ce = v and ctx.get(dut.i.ready)
+            taken = due and ctx.get(dut.bus.ready)
             if ctx.get(dut.o.valid) and r:
                 out_i.append(ctx.get(dut.o.payload.re))
                 out_q.append(ctx.get(dut.o.payload.im))
+            if ctx.get(dut.bus.r_valid):
+                done[reads.pop(0)][3] = ctx.get(dut.bus.r_data)
             k = n_in + (1 if ce else 0)
             await ctx.tick()
-            if op is not None:
-                if op[1] == "r":     # read data is registered: valid right after the edge
-                    done.append((k, "r", op[2], ctx.get(dut.bus.r_data)))
+            if taken:
+                op = ops[op_i]
+                op_i += 1
+                if op[1] == "r":
+                    reads.append(len(done))
+                    done.append([k, "r", op[2], None])
                 else:
-                    done.append((k, "w", op[2], op[3]))
+                    done.append([k, "w", op[2], op[3]])
             if ce:
                 n_in += 1
         raise AssertionError(f"run_replay: not finished after {limit} cycles "
-                             f"({n_in}/{T} in, {len(out_i)} out)")
+                             f"({n_in}/{T} in, {len(out_i)} out, {op_i}/{len(ops)} ops)")
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)
     sim.add_testbench(bench)
     sim.run()
-    return np.array(out_i, dtype=np.int64), np.array(out_q, dtype=np.int64), done
+    return (np.array(out_i, dtype=np.int64), np.array(out_q, dtype=np.int64),
+            [tuple(d) for d in done])
 
 
 def model_replay(contract, inits, xi, xq, done_ops, common_delay=0):

@@ -24,10 +24,10 @@ def sat(v, bits=16):
 class DocReader:
     """docs/fixed_point.md, read literally."""
 
-    def __init__(self, interpolation, inits, latency, writes, common):
+    def __init__(self, interpolation, inits, latency, writes, common, slots):
         self.interp, self.inits, self.L, self.N = interpolation, inits, latency, len(inits)
-        self.common = common
-        self.S = max(1, (self.N - 1).bit_length())     # adder-tree levels
+        self.common, self.M = common, slots
+        self.P = -(-self.N // slots)                    # pipelines
         self.writes = writes          # {channel: [(input k, new gain)]}, in order
         self.c = fir_coefficients()
 
@@ -38,9 +38,10 @@ class DocReader:
         L, inc = len(w), ini.phase_increment
         if s < 0:
             return 0, 0
-        # muted (phase held at 0) while the caches fill after reset: 13 words
-        # per channel, one scan of N clocks each, 8 clocks more; the FIR 48 more
-        mute = 13 * self.N + 8 + (48 if self.interp == "fir" else 0)
+        # muted (phase held at 0) while the caches fill after reset: the
+        # restart, 13 words per channel, one scan of P periods each, 16 clocks
+        # more, one to spare; the FIR 48 more
+        mute = 1 + 13 * self.P + -(-16 // self.M) + 1 + (48 if self.interp == "fir" else 0)
         if s < mute:
             return 0, 0
         s -= mute
@@ -75,17 +76,17 @@ class DocReader:
         for l in range(self.N):
             k = n - self.L - self.common - self.inits[l].delay
             x = (int(xi[k]), int(xq[k])) if k >= 0 else (0, 0)
-            SL = 6 if self.interp == "linear" else 3
-            mi, mq = self.word(l, n - self.L + 6 - SL)
+            mi, mq = self.word(l, n)
             pi, pq = rhu(x[0] * mi - x[1] * mq, 15), rhu(x[0] * mq + x[1] * mi, 15)
-            g = self.gain(l, n - 2 - self.S)
+            g = self.gain(l, n)
             yi += rhu(pi * g, 16)
             yq += rhu(pq * g, 16)
         return sat(yi), sat(yq)
 
 
-@pytest.mark.parametrize("interpolation", ["hold", "linear", "fir"])
-def test_gateware_matches_a_reading_of_the_docs(interpolation):
+@pytest.mark.parametrize("interpolation, slots", [("hold", 1), ("linear", 1), ("fir", 1), ("fir", 2),
+                                                  ("hold", 3)])
+def test_gateware_matches_a_reading_of_the_docs(interpolation, slots):
     rng = np.random.default_rng({"hold": 1, "linear": 2, "fir": 3}[interpolation])
     N, depth = 2, 16
     inits = []
@@ -96,7 +97,7 @@ def test_gateware_matches_a_reading_of_the_docs(interpolation):
         inits.append(ChannelInit(tuple(int(w) for w in words), inc, int(rng.integers(1 << 15, 1 << 17)),
                                  int(rng.integers(0, 5)), True, base=depth * l))
     common = int(rng.integers(0, 9))
-    dut = WindFarmReplay(N, init=inits, pool_words=N * depth, max_delay=8, max_tap=4,
+    dut = WindFarmReplay(N, slots=slots, init=inits, pool_words=N * depth, max_delay=8, max_tap=4,
                          interpolation=interpolation, init_common_delay=common)
     a = dut.register_map.addr
     T = 700
@@ -104,24 +105,23 @@ def test_gateware_matches_a_reading_of_the_docs(interpolation):
     writes = {0: [(350, 70000)], 1: [(400, 12345)]}
     ops = [(k, "w", a("GAIN", l), g) for l, ws in writes.items() for k, g in ws]
     hi, hq, _ = run_replay(dut, xi, xq, ops, valid=(1, 1, 0), hold=True)
-    doc = DocReader(interpolation, inits, dut.latency, writes, common)
+    doc = DocReader(interpolation, inits, dut.latency, writes, common, slots)
     for n in range(T):
         assert (int(hi[n]), int(hq[n])) == doc.output(xi, xq, n), f"output {n}"
 
 
-@pytest.mark.parametrize("N", [3, 5])
-def test_gain_write_shows_2_plus_tree_levels_later(N):
-    """What the docs state: a GAIN write before input k shows from output
-    k + 2 + S (S = max(1, ceil(log2 N)) adder-tree levels) for every channel,
-    seen directly (a constant stream and input, hold)."""
-    S = {3: 2, 5: 3}[N]
+@pytest.mark.parametrize("N, slots", [(3, 1), (5, 1), (5, 2), (7, 3)])
+def test_gain_write_shows_at_output_k(N, slots):
+    """What the docs state: a GAIN write between inputs k - 1 and k shows from
+    output k on, for every channel whatever its slot, seen directly (a
+    constant stream and input, hold)."""
     word = int(pack_iq([16384], [0])[0])
     for l in range(N):
         inits = [ChannelInit((word,) * 8, 0, 0, 0, True) for _ in range(N)]
-        dut = WindFarmReplay(N, init=inits, pool_words=16, max_delay=4, max_tap=2,
+        dut = WindFarmReplay(N, slots=slots, init=inits, pool_words=16, max_delay=4, max_tap=2,
                              interpolation="hold")
         R = dut.contract.refill_samples          # muted while the caches fill after reset
         T, k = R + 80, R + 40
         hi, _, _ = run_replay(dut, np.full(T, 16384), np.zeros(T), [(k, "w", dut.register_map.addr("GAIN", l), 1 << 16)],
                               hold=True)
-        assert int(np.nonzero(hi)[0][0]) == k + 2 + S
+        assert int(np.nonzero(hi)[0][0]) == k, f"channel {l}"

@@ -1,4 +1,4 @@
-"""Stream replay, complex multiplier and delay line against the bit-exact model."""
+"""Complex multiplier, delay line and one channel's stream against the bit-exact model's functions."""
 
 import itertools
 import warnings
@@ -10,9 +10,9 @@ from amaranth.sim import Simulator
 
 from rast.hdl.cmult import ComplexMultiplier
 from rast.hdl.delay_line import DelayLine
-from rast.hdl.stream_replay import StreamReplay
 from rast.hdl.stream_pool import StreamPool
-from rast.sim.pooled_stream import PooledStream
+from rast.hdl.replay_top import WindFarmReplay
+from rast.model.powerup import ChannelInit
 from rast.hdl.iq import IQ
 from rast.model import datapath as dp
 from rast.model.fixedpoint import pack_iq, unpack_iq, PHASE_FRAC_BITS, ReplayContract
@@ -45,26 +45,15 @@ def test_delay_line_parameters():
         DelayLine(0, 4)
     with pytest.raises(TypeError, match=r"^Maximum delay must be a non-negative integer, not -1$"):
         DelayLine(8, -1)
+    with pytest.raises(ValueError, match=r"^Lag must be a positive integer, not 0$"):
+        DelayLine(8, 4, lag=0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
         assert [DelayLine(8, d).depth for d in (0, 14, 15)] == [2, 16, 32]
+        assert DelayLine(8, 14, lag=2).depth == 32
 
 
-def test_stream_replay_parameters():
-    with pytest.raises(ValueError, match=r"^Pool words must be an integer of at least 16, not 6$"):
-        StreamReplay(6)
-    with pytest.raises(ValueError, match=r"^Channels must be an integer in \[1, 64\], not 0$"):
-        StreamReplay(16, channels=0)
-    with pytest.raises(ValueError, match=r"^Interpolation must be one of hold, linear, fir, not 'cubic'$"):
-        StreamReplay(16, interpolation="cubic")
-    with pytest.raises(ValueError, match=r"^Initial length must be an integer in \[8, 16\], not 4$"):
-        StreamReplay(16, init_length=4)
-    with pytest.raises(ValueError, match=r"^Initial base must be a pool address in \[0, 15\], not 16$"):
-        StreamReplay(16, init_base=16)
-    with pytest.raises(ValueError, match=r"^Initial increment must be an integer in \[0, 5592405\], not 5592406$"):
-        StreamReplay(16, init_increment=5592406)
-    with pytest.raises(ValueError, match=r"^Initial increment must be an integer in \[0, 2147483647\], not 2147483648$"):
-        StreamReplay(16, channels=2, interpolation="hold", init_increment=1 << 31)
+def test_stream_pool_parameters():
     with pytest.raises(ValueError, match=r"^Pool words must be a power of two from 16 to 16384 or a "
                                          r"multiple of 16384, not 48$"):
         StreamPool(48, 4)
@@ -72,7 +61,9 @@ def test_stream_replay_parameters():
 
 @pytest.mark.parametrize("args, exc, msg", [
     (dict(channels=0), ValueError, r"^Channel count must be a positive integer, not 0$"),
-    (dict(channels=65), ValueError, r"^Channel count must be at most 64, not 65$"),
+    (dict(channels=256), ValueError, r"^Channel count must be at most 255, not 256$"),
+    (dict(slots=0), ValueError, r"^Slots per pipeline must be a positive integer, not 0$"),
+    (dict(slots=65), ValueError, r"^Slots per pipeline must be at most 64, not 65$"),
     (dict(channels=2.0), TypeError, r"^Channel count must be a positive integer, not 2.0$"),
     (dict(pool_words=100), ValueError,
      r"^Pool words must be a power of two from 16 to 16384 or a multiple of 16384, not 100$"),
@@ -135,9 +126,14 @@ def test_cmult_random_and_extremes(form):
 
 # ---------------------------------------------------------------- delay line
 
-def test_delay_line_every_delay_with_gaps():
+@pytest.mark.parametrize("lag", [1, 2])
+def test_delay_line_every_delay_with_gaps(lag):
+    """One word per step (written at its step index), read for each step at a
+    delay that changes: out = x[n - lag - d], checked directly and against the
+    model's ``delay_line``."""
     maxd = 13
-    dut = DelayLine(16, maxd)
+    dut = DelayLine(16, maxd, lag)
+    D = dut.depth
     rng = np.random.default_rng(5)
     per = 40
     delays = np.repeat(np.arange(maxd + 1), per)
@@ -148,86 +144,85 @@ def test_delay_line_every_delay_with_gaps():
 
     async def bench(ctx):
         n = 0
-        while n < len(x):
-            en = next(en_pat)
-            ctx.set(dut.en, en); ctx.set(dut.i, int(x[n])); ctx.set(dut.delay, int(delays[n]))
+        pending = []                   # steps whose read is in the RAM's pipeline
+        while n < len(x) or pending:
+            en = next(en_pat) if n < len(x) else 0
+            ctx.set(dut.w_en, en)
             if en:
+                ctx.set(dut.w_index, n % D); ctx.set(dut.w_data, int(x[n]))
+                # the read for step n in the same clock as its write
+                ctx.set(dut.r_index, n % D); ctx.set(dut.r_delay, int(delays[n]))
+            pending = [(k, t - 1) for k, t in pending]
+            if pending and pending[0][1] == 0:
                 got.append(ctx.get(dut.o))
+                pending.pop(0)
+            if en:
+                pending.append((n, dut.latency))
                 n += 1
             await ctx.tick()
 
     simulate(dut, bench)
-    expect = dp.delay_line(x, delays)
+    expect = dp.delay_line(x, delays, lag)
     got = np.array(got)
     bad = np.nonzero(got != expect)[0]
     assert not len(bad), f"step {bad[0]} delay {delays[bad[0]]}: gateware {got[bad[0]]}, model {expect[bad[0]]}"
-    # exactness, independently of the model: with a constant delay d, out[n] = x[n - 3 - d]
+    # exactness, independently of the model: with a constant delay d, out[n] = x[n - lag - d]
     for d in range(maxd + 1):
-        lo = d * per + 3 + maxd + 1
+        lo = d * per + lag + maxd + 1
         for n in range(lo, (d + 1) * per):
-            assert got[n] == x[n - 3 - d], f"delay {d}, step {n}"
+            assert got[n] == x[n - lag - d], f"delay {d}, step {n}"
 
 
-# ---------------------------------------------------------------- stream replay
+# ---------------------------------------------------------------- one channel's stream
 
-def _run_stream(dut, steps, en_pat=(1,)):
-    idx, words = [], []
-    pat = itertools.cycle(en_pat)
-
-    async def bench(ctx):
-        n = 0
-        while n < steps:
-            en = next(pat)
-            ctx.set(dut.en, en)
-            if en:
-                idx.append(ctx.get(dut.index))
-                words.append((ctx.get(dut.o.re), ctx.get(dut.o.im)))
-                n += 1
-            await ctx.tick()
-
-    simulate(dut, bench)
-    return np.array(idx), np.array(words)
+def _one_channel(words, length, inc, interpolation, slots, steps, valid=(1,)):
+    """One channel playing ``words`` at unit gain, its input a constant 0.5:
+    the output sample n is the word at the multiplier halved (rounded)."""
+    dut = WindFarmReplay(1, slots=slots, pool_words=16, max_delay=2, max_tap=1,
+                         interpolation=interpolation,
+                         init=[ChannelInit(tuple(int(w) for w in words[:length]), inc, 1 << 16, 0, True)])
+    from hdl_harness import run_replay
+    x = np.full(steps, 16384, dtype=np.int64)
+    yi, yq, _ = run_replay(dut, x, np.zeros(steps, dtype=np.int64), valid=valid)
+    return dut, yi, yq
 
 
-@pytest.mark.parametrize("interpolation", ["hold", "linear", "fir"])
-def test_stream_replay_wraps_at_length(interpolation):
+@pytest.mark.parametrize("interpolation, slots", [("hold", 1), ("linear", 2), ("fir", 1), ("fir", 3)])
+def test_stream_wraps_at_length(interpolation, slots):
+    """The word played at step n is the stream's word for the phase
+    ``(n - R) * PHASE_INC mod LENGTH * 2**32`` (muted for the R refill steps
+    after reset), by ``phase_sequence`` and ``stream_words`` alone."""
     rng = np.random.default_rng(7)
     depth, length = 16, 11
     wi, wq = rng.integers(-32768, 32768, depth), rng.integers(-32768, 32768, depth)
     words = pack_iq(wi, wq)
-    c = ReplayContract(channels=1, pool_words=depth, interpolation=interpolation)
-    # FIR: the largest rates it takes, so J advances as often as allowed
+    c = ReplayContract(channels=1, slots=slots, pool_words=depth, interpolation=interpolation)
+    # the largest rates it takes, so the index (FIR: J) advances as often as allowed
     inc = int(rng.integers(c.max_phase_increment // 5, c.max_phase_increment + 1))
-    dut = PooledStream(depth, interpolation=interpolation, init=list(words), init_length=length,
-                       init_increment=inc)
-    # the phase is held at 0 for the refill after reset
-    mute = c.refill_samples
-    steps = mute + length * ONE // inc + 600
-    idx, got = _run_stream(dut, steps, en_pat=(1, 1, 0))
-    ph = np.concatenate([np.zeros(mute, dtype=np.int64), dp.phase_sequence(0, inc, length, steps - mute)])
-    assert (idx == ph >> 32).all()
-    assert idx.max() == length - 1
-    # word at step n comes from the phase at step n - latency; 0 while muted
+    R = c.refill_samples
+    steps = R + min(length * ONE // inc, 1500) + 300
+    dut, yi, yq = _one_channel(words, length, inc, interpolation, slots, steps, valid=(1, 1, 0))
+    ph = dp.phase_sequence(0, inc, length, steps - R)
     ei, eq = dp.stream_words(interpolation, words, length, ph)
-    ei[:mute] = 0
-    eq[:mute] = 0
-    lat = dut.latency
-    for n in range(lat, steps):
-        assert tuple(got[n]) == (ei[n - lat], eq[n - lat]), \
-            f"step {n}: gateware {tuple(got[n])}, model ({ei[n-lat]}, {eq[n-lat]}), phase {ph[n-lat]:#x}"
+    # output = cmult(x, w) * 1.0 with x = 0.5 and the window's 2-sample lag: (w + 1) >> 1
+    half = lambda v: (np.asarray(v) * 16384 + 16384) >> 15
+    assert not yi[:R].any() and not yq[:R].any(), "not muted during the refill after reset"
+    wr, wim = half(ei), half(eq)
+    # the input is 0 for the first L steps (the delay lines start empty)
+    L = dut.latency
+    assert (yi[max(R, L):] == wr[max(0, L - R):]).all() and (yq[max(R, L):] == wim[max(0, L - R):]).all()
 
 
-def test_stream_replay_long_run_exact_period():
-    # 3 words at 0.3709... words per sample: thousands of wraps, index exact at every step
+def test_stream_long_run_exact_period():
+    """3 words at 0.3709... words per sample: hundreds of wraps, the word index
+    exact at every step."""
     inc = 1593012345
-    dut = PooledStream(16, interpolation="hold", init=[1, 2, 3], init_length=3, init_increment=inc)
-    steps = 20000
-    mute = dut.stream.refill_samples
-    idx, got = _run_stream(dut, steps)
-    ph = np.concatenate([np.zeros(mute, dtype=np.int64), dp.phase_sequence(0, inc, 3, steps - mute)])
-    assert (idx == ph >> 32).all()
-    lat = dut.latency
-    assert (got[mute + lat:, 0] == (ph[mute:steps - lat] >> 32) + 1).all()      # words 1, 2, 3
+    words = pack_iq([1000, 2000, 3000], [0, 0, 0])
+    steps = 5000
+    dut, yi, _ = _one_channel(words, 3, inc, "hold", 1, steps)
+    R = dut.contract.refill_samples
+    ph = dp.phase_sequence(0, inc, 3, steps - R)
+    assert (yi[R:] == 500 * ((ph >> 32) + 1)).all()            # words 1000, 2000, 3000 halved
 
 
 @pytest.mark.parametrize("rate", [Fraction(1, 3), Fraction(4321, 1000000), Fraction(999, 1000)])

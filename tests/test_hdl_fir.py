@@ -37,13 +37,14 @@ def _check(dut, inits, xi, xq, ops=(), valid=(1,), ready=(1,), name="fir"):
     return hi, hq, model
 
 
+@pytest.mark.parametrize("slots", [1, 2])
 @pytest.mark.parametrize("valid, ready", [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1))])
-def test_fir_at_its_highest_rate_matches_model(valid, ready):
+def test_fir_at_its_highest_rate_matches_model(valid, ready, slots):
     """Increments up to the largest the MAC can follow (J advances every 24
     samples), random full-scale words, every stall pattern: integer equal."""
     rng = np.random.default_rng(len(valid) + 10 * len(ready))
     inits = _inits(rng, 2)
-    dut = WindFarmReplay(2, init=inits, **KW)
+    dut = WindFarmReplay(2, slots=slots, init=inits, **KW)
     T = 2500
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     hi, _, _ = _check(dut, inits, xi, xq, valid=valid, ready=ready)
@@ -52,8 +53,8 @@ def test_fir_at_its_highest_rate_matches_model(valid, ready):
     assert np.count_nonzero(hi[dut.latency + R:]) > 0.9 * (T - dut.latency - R)
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_fir_reloads_and_forced_switches_match_model(seed):
+@pytest.mark.parametrize("seed, slots", [(1, 1), (2, 3)])
+def test_fir_reloads_and_forced_switches_match_model(seed, slots):
     """Stream reloads into free pool space switching at the period boundary,
     forced switches (also in the middle of a refill), rate and length writes
     beyond the clamps."""
@@ -61,7 +62,7 @@ def test_fir_reloads_and_forced_switches_match_model(seed):
     rng = np.random.default_rng(200 + seed)
     N = 2
     inits = _inits(rng, N, depth=16)
-    dut = WindFarmReplay(N, init=inits, **KW)
+    dut = WindFarmReplay(N, slots=slots, init=inits, **KW)
     a = dut.register_map.addr
     pool = PoolTracker(dut.contract, [(i.base, len(i.words)) for i in inits])
     T = 3000

@@ -46,13 +46,18 @@ def test_top_parameters():
         WindFarmReplay(1, init=[ChannelInit(), ChannelInit()])
     with pytest.raises(TypeError, match=r"^Initial contents of channel 0 must be a ChannelInit, not 3$"):
         WindFarmReplay(1, init=[3])
+    with pytest.raises(ValueError, match=r"^Slots per pipeline must be a positive integer, not 0$"):
+        WindFarmReplay(1, slots=0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
-        # two delay lines (3 + 3), complex product (3; 4 in the 3-multiplier
-        # form), gain (2), adder tree (log2 N levels, at least one)
-        assert WindFarmReplay(16).latency == 6 + 3 + 2 + 4
-        assert WindFarmReplay(5, cmult_form="3mult").latency == 6 + 4 + 2 + 3
-        assert WindFarmReplay(1).latency == 6 + 3 + 2 + 1
+        # in samples, only the two delay lines' lags: the pipeline's clocks are
+        # not seen in the step count
+        assert WindFarmReplay(16).latency == 2
+        assert WindFarmReplay(64, slots=10, cmult_form="3mult").latency == 2
+        # in clocks: the last slot, its visit, word (5), product (5; 6 in the
+        # 3-multiplier form), gain (3), slot sum, tree (log2 P levels), saturation (2)
+        assert WindFarmReplay(64, slots=10).contract.output_cycles == 9 + 1 + 5 + 5 + 3 + 1 + 3 + 2
+        assert WindFarmReplay(5, cmult_form="3mult").contract.output_cycles == 1 + 5 + 6 + 3 + 1 + 3 + 2
     with pytest.raises(ValueError, match=r"^Initial common delay must be an integer in \[0, 4094\], not 4095$"):
         WindFarmReplay(2, init_common_delay=4095)
 
@@ -62,7 +67,10 @@ STALLS = [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1)), ((0, 1, 0, 0, 1), (1,)), ((1,
 
 @pytest.mark.parametrize("valid, ready", STALLS)
 @pytest.mark.parametrize("channels, opts", [(1, {}), (3, {}), (2, dict(interpolation="linear")),
-                                            (2, dict(interpolation="fir")), (2, dict(cmult_form="3mult"))])
+                                            (2, dict(interpolation="fir")), (2, dict(cmult_form="3mult")),
+                                            (3, dict(slots=3)), (4, dict(slots=3)), (5, dict(slots=2)),
+                                            (3, dict(slots=2, interpolation="linear")),
+                                            (4, dict(slots=3, interpolation="fir"))])
 def test_random_against_model(channels, opts, valid, ready):
     rng = np.random.default_rng(channels * 100 + len(valid) * 10 + len(ready) + len(opts))
     inits = rand_inits(rng, channels)
@@ -72,22 +80,24 @@ def test_random_against_model(channels, opts, valid, ready):
     check(dut, inits, xi, xq, valid=valid, ready=ready, name=f"N={channels} {opts} {valid} {ready}")
 
 
-def test_gaps_do_not_change_output():
+@pytest.mark.parametrize("slots", [1, 3])
+def test_gaps_do_not_change_output(slots):
     rng = np.random.default_rng(11)
     inits = rand_inits(rng, 2)
     T = 200
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     runs = []
     for valid, ready in STALLS:
-        dut = WindFarmReplay(2, init=inits, **KW)
+        dut = WindFarmReplay(2, slots=slots, init=inits, **KW)
         hi, hq, _ = run_replay(dut, xi, xq, (), valid, ready)
         runs.append((hi, hq))
     for hi, hq in runs[1:]:
         assert (hi == runs[0][0]).all() and (hq == runs[0][1]).all()
 
 
+@pytest.mark.parametrize("slots", [1, 4])
 @pytest.mark.parametrize("register", ["COMMON_DELAY", "DELAY"])
-def test_every_delay_echo_position(register):
+def test_every_delay_echo_position(register, slots):
     """Impulse through channel 2, every value 0..max of COMMON_DELAY (tap 3) or
     of its DELAY (common delay 2): the echo is at exactly L + COMMON_DELAY +
     DELAY (checked directly, and against the model)."""
@@ -97,7 +107,7 @@ def test_every_delay_echo_position(register):
     inits = [ChannelInit((word,), 0, 1 << 16, 3 if register == "COMMON_DELAY" else 0, l == channel)
              for l in range(N)]
     common = 2 if register == "DELAY" else 0
-    dut = WindFarmReplay(N, init=inits, init_common_delay=common, **KW)
+    dut = WindFarmReplay(N, slots=slots, init=inits, init_common_delay=common, **KW)
     rmap = dut.register_map
     L = dut.latency
     base_sum = common + inits[channel].delay
@@ -119,11 +129,12 @@ def test_every_delay_echo_position(register):
         assert seg[hit[0]] == 10000
 
 
-def test_full_scale_in_phase_saturates_and_flags_overflow():
+@pytest.mark.parametrize("slots", [1, 2])
+def test_full_scale_in_phase_saturates_and_flags_overflow(slots):
     N = 4
     word = int(pack_iq([-32768], [-32768])[0])
     inits = [ChannelInit((word,), 0, (1 << 17) - 1, 0, True) for _ in range(N)]
-    dut = WindFarmReplay(N, init=inits, **KW)
+    dut = WindFarmReplay(N, slots=slots, init=inits, **KW)
     rmap = dut.register_map
     L = dut.latency
     R = dut.contract.refill_samples               # muted after reset while the caches fill
@@ -133,7 +144,7 @@ def test_full_scale_in_phase_saturates_and_flags_overflow():
     st = rmap.addr("STATUS")
     ops = [(R + 2, "r", st, 0), (R + L + 3, "r", st, 0), (R + L + 3, "r", st, 0),
            (R + L + 20, "r", st, 0), (R + L + 22, "r", st, 0)]
-    hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 1, 0), name="full scale")
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 1, 0), name="full scale", hold=True)
     # (-1-1j)*(-1-1j) = 2j: Q saturates high, I is 0
     assert hq.max() == 32767 and (hq == 32767).sum() >= 4
     reads = [v for k, kind, a, v in done if kind == "r"]
@@ -141,11 +152,12 @@ def test_full_scale_in_phase_saturates_and_flags_overflow():
     assert reads[-1] == 0
 
 
-def test_register_writes_mid_stream():
+@pytest.mark.parametrize("slots", [1, 2, 3])
+def test_register_writes_mid_stream(slots):
     rng = np.random.default_rng(21)
     N = 3
     inits = rand_inits(rng, N)
-    dut = WindFarmReplay(N, init=inits, **KW)
+    dut = WindFarmReplay(N, slots=slots, init=inits, **KW)
     rmap = dut.register_map
     T = 600
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
@@ -175,10 +187,11 @@ def test_identification_registers():
                                                "MAX_TAP")]
     _, _, done, _ = check(dut, [], np.zeros(4, np.int64), np.zeros(4, np.int64), ops)
     vals = [v for *_, v in done]
-    assert vals == [ID_VALUE, 2, dut.latency, KW["pool_words"], 20, 6]
+    assert vals == [ID_VALUE, 2 | (1 << 16), dut.latency, KW["pool_words"], 20, 6]
 
 
-def test_switch_at_period_boundary():
+@pytest.mark.parametrize("slots", [1, 3])
+def test_switch_at_period_boundary(slots):
     """A new stream written into free pool space while running takes over
     exactly after the old stream's last word, after the refill's muted samples."""
     length_old, length_new = 5, 3
@@ -186,7 +199,7 @@ def test_switch_at_period_boundary():
     new = pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)
     inc = 3 << 30                       # 0.75 words per sample
     inits = [ChannelInit(tuple(int(w) for w in old), inc, 1 << 16, 0, True)]
-    dut = WindFarmReplay(1, init=inits, **KW)
+    dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
     rmap = dut.register_map
     R = dut.contract.refill_samples
     T = 2 * R + 160
@@ -214,12 +227,12 @@ def test_switch_at_period_boundary():
     assert set(out[first_new:].tolist()) == {-250, -500, -750}
 
 
-def test_manifest_register_writes_place_echoes():
+@pytest.mark.parametrize("slots", [1, 2])
+def test_manifest_register_writes_place_echoes(slots):
     """A manifest (as `rast stream` writes it) loaded by register writes into a
     block that starts empty: each windmill's echo lands at its delay_samples."""
-    rng = np.random.default_rng(4)
     N = 3
-    dut = WindFarmReplay(N, **KW)
+    dut = WindFarmReplay(N, slots=slots, **KW)
     L = dut.latency
     names = ["a", "b", "c"]
     delays = [L + 7, L + 7, L + 10]
@@ -250,8 +263,8 @@ def test_manifest_register_writes_place_echoes():
     assert common == 7 and [i.delay for i in inits] == [0, 0, 3]
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_random_register_stress(seed):
+@pytest.mark.parametrize("seed, slots", [(1, 1), (2, 1), (3, 2), (4, 3), (5, 2)])
+def test_random_register_stress(seed, slots):
     """Dense random register traffic (stream writes, switches forced and at
     wraps, base/rate/length changes, delays, status reads) racing the samples.
     Stream words are written only where no channel can play (the pool's upper
@@ -260,7 +273,7 @@ def test_random_register_stress(seed):
     N = 2
     kw = dict(pool_words=32, max_delay=5, max_tap=3)
     inits = rand_inits(rng, N, depth=4)
-    dut = WindFarmReplay(N, init=inits, interpolation=("hold", "linear")[seed % 2], **kw)
+    dut = WindFarmReplay(N, slots=slots, init=inits, interpolation=("hold", "linear")[seed % 2], **kw)
     a = dut.register_map.addr
     T = 500
     xi = rng.integers(-32768, 32768, T); xq = rng.integers(-32768, 32768, T)
@@ -291,12 +304,14 @@ def test_random_register_stress(seed):
     check(dut, inits, xi, xq, ops, valid=(1, 1, 0), ready=(1, 1, 1, 0), name=f"stress {seed}")
 
 
-def test_forced_switch_racing_a_wrap():
+@pytest.mark.parametrize("slots", [1, 2])
+def test_forced_switch_racing_a_wrap(slots):
     """A CTRL write that forces a switch in the very sample whose wrap completes
     a pending switch: both switches happen (bank toggles twice), as in the model."""
     words = [int(pack_iq([1000 * (k + 1)], [0])[0]) for k in range(4)]
     inits = [ChannelInit((words[0],), (1 << 32) - 1, 1 << 16, 0, True)]
-    dut = WindFarmReplay(1, init=inits, pool_words=16, max_delay=3, max_tap=1, interpolation="hold")
+    dut = WindFarmReplay(1, slots=slots, init=inits, pool_words=16, max_delay=3, max_tap=1,
+                         interpolation="hold")
     a = dut.register_map.addr
     R = dut.contract.refill_samples                # each switch mutes (phase held) this long
     T = 11 * (R + 6)
@@ -313,11 +328,12 @@ def test_forced_switch_racing_a_wrap():
     assert banks == [0] * len(banks) and len(banks) == 10
 
 
-def test_sixteen_channels():
+@pytest.mark.parametrize("slots", [1, 5])
+def test_sixteen_channels(slots):
     rng = np.random.default_rng(16)
     inits = rand_inits(rng, 16, depth=4)
-    dut = WindFarmReplay(16, init=inits, pool_words=64, max_delay=5, max_tap=2, interpolation="hold")
-    assert dut.latency == 6 + 3 + 2 + 4          # delay lines, cmult, gain, 4 adder levels
+    dut = WindFarmReplay(16, slots=slots, init=inits, pool_words=64, max_delay=5, max_tap=2,
+                         interpolation="hold")
     T = dut.contract.refill_samples + 160         # past the caches' first fill
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     check(dut, inits, xi, xq, valid=(1, 1, 0), name="N=16")
