@@ -23,23 +23,28 @@ rate error of 2.3e-10, far below the rounding of the period itself.
 
 from __future__ import annotations
 
+import functools
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import fixedpoint as fx
 from .config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
-from .synthesis import Synthesis, synthesise_period
+from .synthesis import ComputePool, Synthesis, synthesise_period
 from .turbine import max_doppler_hz
 
 __all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams",
-           "plan_stream", "stream_times", "quantise", "build_farm_streams",
+           "plan_stream", "stream_times", "quantise", "quantise_words", "build_farm_streams",
            "delay_samples", "farm_for_build"]
 
 MIN_STREAM_WORDS = 16
-#: Samples quantised at a time (bounds the temporaries).
+#: Samples quantised at a time (bounds the temporaries; one task of the pool).
 _QUANTISE_BLOCK = 1 << 20
+#: A windmill of at least this many words is computed with every core; shorter
+#: ones are computed side by side, one per core.
+_PARALLEL_WITHIN = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,14 @@ def stream_times(plan: StreamPlan, windmill: Windmill) -> np.ndarray:
     return np.arange(plan.length) * (windmill.period_s / plan.length)
 
 
+@functools.lru_cache(maxsize=1)
+def _fir_taps() -> np.ndarray:
+    """The FIR's integer coefficients (computed once: the farm's every windmill checks them)."""
+    taps = np.array(fx.fir_coefficients(), dtype=np.int64)
+    taps.flags.writeable = False
+    return taps
+
+
 def _fir_peak(i: np.ndarray, q: np.ndarray, limit: int) -> float:
     """Largest |I| or |Q| of the FIR interpolator's intermediate values before
     their saturation (in word units): the continuous signal between the words
@@ -84,20 +97,114 @@ def _fir_peak(i: np.ndarray, q: np.ndarray, limit: int) -> float:
     times the largest Σ|c| of a phase) shows an output cannot exceed ``limit``,
     it is not computed, and a result ≤ ``limit`` only says so.
     """
-    c = np.array(fx.fir_coefficients(), dtype=np.int64)
+    c = _fir_taps()
     L = len(i)
     # Output n of every phase reads the words (n + FIR_LEAD − k) mod L, k = 0 … FIR_TAPS − 1.
     start = (fx.FIR_LEAD - fx.FIR_TAPS + 1) % L
     largest = np.maximum(np.abs(i), np.abs(q))
     ring = np.take(largest, np.arange(start, start + L + fx.FIR_TAPS - 1) % L)
-    window_max = np.lib.stride_tricks.sliding_window_view(ring, fx.FIR_TAPS).max(axis=1)
+    window_max = ring[:L].copy()                  # max over the FIR_TAPS words of output n
+    for k in range(1, fx.FIR_TAPS):
+        np.maximum(window_max, ring[k:k + L], out=window_max)
     bound = fx.round_half_up(window_max * int(np.abs(c).sum(axis=1).max()), fx.FIR_COEF_FRAC)
     n = np.flatnonzero(bound > limit)
     if n.size == 0:
         return 0.0
     taps = (n[:, None] + fx.FIR_LEAD - np.arange(fx.FIR_TAPS)[None, :]) % L
-    acc = np.stack([i, q])[:, taps] @ c.T
-    return float(np.abs(fx.round_half_up(acc, fx.FIR_COEF_FRAC)).max())
+    # Integer sums in float64 (BLAS): |word·c| < 2**33, ten of them < 2**37, every
+    # partial sum exact in a 53-bit mantissa.
+    acc = np.stack([i, q]).astype(np.float64)[:, taps] @ c.T.astype(np.float64)
+    return float(np.abs(fx.round_half_up(acc.astype(np.int64), fx.FIR_COEF_FRAC)).max())
+
+
+_scratch = threading.local()
+
+
+def _quantise_block(period: np.ndarray, pairs: np.ndarray, block: slice, scale: float,
+                    fmt: fx.Format, in_range: bool) -> tuple[float, float, float, float]:
+    """Round ``period[block]·scale`` into the I and Q columns of ``pairs`` (int16 pairs);
+    returns Σx² and Σ(x − word)² of I, then of Q (x the scaled value). ``in_range``:
+    every rounded value is known to fit the words, so none is clipped."""
+    size = block.stop - block.start
+    if getattr(_scratch, "size", 0) < size:
+        _scratch.scaled, _scratch.rounded, _scratch.size = np.empty(size), np.empty(size), size
+    x = _scratch.scaled[:size]
+    sums = []
+    for part, column in ((period.real[block], 0), (period.imag[block], 1)):
+        words = pairs[block, column]
+        np.multiply(part, scale, out=x)
+        sums.append(float(np.einsum("i,i->", x, x)))   # (not BLAS: its threads cost more than the sum here)
+        if in_range:                                    # rounded (half to even) straight into the words
+            np.rint(x, out=words, casting="unsafe")
+            np.subtract(x, words, out=x)
+        else:
+            r = _scratch.rounded[:size]
+            np.rint(x, out=r)
+            np.clip(r, fmt.min, fmt.max, out=r)
+            np.copyto(words, r, casting="unsafe")       # whole numbers in range: exact
+            x -= r
+        sums.append(float(np.einsum("i,i->", x, x)))
+    return tuple(sums)
+
+
+def _peak(period: np.ndarray, pool: ComputePool) -> float:
+    """max(|Re|, |Im|) over a contiguous period, in blocks on the pool: the largest and
+    smallest of its float64 view, read in cache-sized pieces (no temporaries)."""
+    flat = period.view(np.float64)
+    piece = 1 << 16
+
+    def one(start):
+        best = 0.0
+        for k in range(start, min(flat.size, start + 2 * _QUANTISE_BLOCK), piece):
+            part = flat[k:k + piece]
+            best = max(best, float(part.max()), -float(part.min()))
+        return best
+    starts = range(0, flat.size, 2 * _QUANTISE_BLOCK)
+    return max((f.result() for f in [pool.submit(one, k) for k in starts]), default=0.0)
+
+
+def quantise_words(period: np.ndarray, fmt: fx.Format = fx.STREAM, interpolation: str = "hold",
+                   *, pool: ComputePool | None = None, emit=None):
+    """:func:`quantise`, the words packed as they are stored: little-endian uint32,
+    I in the low half (``fixedpoint.pack_iq``). Returns ``(words, scale, snr_db)``.
+
+    The blocks are rounded on ``pool`` (default: every core); ``emit(start, words)``
+    is called, in order, as ``words[start:start + len(words)]`` becomes final.
+    """
+    if pool is None:
+        with ComputePool() as pool:
+            return quantise_words(period, fmt, interpolation, pool=pool, emit=emit)
+    period = np.ascontiguousarray(period, dtype=complex).reshape(-1)
+    peak = _peak(period, pool)
+    scale = fmt.max / peak if peak > 0 else 1.0
+    words = np.empty(period.size, dtype="<u4")
+    pairs = words.view("<i2").reshape(-1, 2)          # (I, Q) of each word
+    blocks = [slice(s, min(period.size, s + _QUANTISE_BLOCK)) for s in range(0, period.size, _QUANTISE_BLOCK)]
+    checked = interpolation == "fir" and peak > 0     # the FIR's headroom may ask to scale again
+    while True:
+        # |x| ≤ peak·scale (rounding is monotonic): below fmt.max + ½, no word needs clipping.
+        in_range = peak * scale < fmt.max + 0.5 and -peak * scale > fmt.min - 0.5
+        futures = [pool.submit(_quantise_block, period, pairs, b, scale, fmt, in_range) for b in blocks]
+        error = signal = 0.0
+        for block, future in zip(blocks, futures):
+            signal_i, error_i, signal_q, error_q = future.result()
+            signal += signal_i                        # summed in the order of one pass over
+            error += error_i                          # the blocks, I then Q: the same
+            signal += signal_q                        # figures on any number of cores
+            error += error_q
+            if emit and not checked:
+                emit(block.start, words[block])
+        if not checked:
+            break
+        over = _fir_peak(pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64), fmt.max)
+        if over <= fmt.max:
+            if emit:
+                for block in blocks:
+                    emit(block.start, words[block])
+            break
+        scale *= (fmt.max - 1) / over
+    snr_db = 10 * np.log10(signal / error) if error > 0 else math.inf
+    return words, scale, float(snr_db)
 
 
 def quantise(period: np.ndarray, fmt: fx.Format = fx.STREAM, interpolation: str = "hold"):
@@ -109,34 +216,10 @@ def quantise(period: np.ndarray, fmt: fx.Format = fx.STREAM, interpolation: str 
     Returns ``(i, q, scale, snr_db)``: integer I and Q (int64), the scale
     (word units per unit of modulation) and the quantisation SNR in dB.
     """
-    peak = max(float(np.abs(period.real).max()), float(np.abs(period.imag).max())) if period.size else 0.0
-    scale = fmt.max / peak if peak > 0 else 1.0
-    i = np.empty(period.shape, dtype=np.int64)
-    q = np.empty(period.shape, dtype=np.int64)
-    while True:
-        # In blocks, so that a 26.7 M-word period needs no full-length temporaries.
-        error = signal = 0.0
-        scaled = np.empty(min(period.size, _QUANTISE_BLOCK))
-        rounded = np.empty_like(scaled)
-        for start in range(0, period.size, _QUANTISE_BLOCK):
-            block = slice(start, start + _QUANTISE_BLOCK)
-            for part, words in ((period.real[block], i[block]), (period.imag[block], q[block])):
-                x, r = scaled[:part.size], rounded[:part.size]
-                np.multiply(part, scale, out=x)
-                np.rint(x, out=r)                 # half to even, as np.round
-                np.clip(r, fmt.min, fmt.max, out=r)
-                words[...] = r
-                signal += float(np.einsum("i,i->", x, x))   # (not BLAS: its threads cost
-                x -= r                                      # more than the sum here)
-                error += float(np.einsum("i,i->", x, x))
-        if interpolation != "fir" or peak == 0:
-            break
-        over = _fir_peak(i, q, fmt.max)
-        if over <= fmt.max:
-            break
-        scale *= (fmt.max - 1) / over
-    snr_db = 10 * np.log10(signal / error) if error > 0 else math.inf
-    return i, q, scale, float(snr_db)
+    words, scale, snr_db = quantise_words(period, fmt, interpolation)
+    pairs = words.view("<i2").reshape(-1, 2)
+    return (pairs[:, 0].astype(np.int64).reshape(np.shape(period)),
+            pairs[:, 1].astype(np.int64).reshape(np.shape(period)), scale, snr_db)
 
 
 def delay_samples(range_km: float, sample_rate_hz: float) -> int:
@@ -159,13 +242,20 @@ class WindmillStream:
     gain_word: int = 0
     tap: int = 0
     synthesis: Synthesis | None = None   # how the period was made (rast.model.synthesis)
+    # The words as stored (little-endian uint32, I low); when set, ``i`` and ``q``
+    # are int16 views of it (build_farm_streams: no second copy of 26.7 M words).
+    packed: np.ndarray | None = None
 
     @property
     def words(self) -> np.ndarray:
+        if self.packed is not None:
+            return self.packed.astype(np.int64)
         return fx.pack_iq(self.i, self.q)
 
     def words_u32(self) -> np.ndarray:
         """The same words as uint32, in blocks (the file writers' form: half the memory)."""
+        if self.packed is not None:
+            return self.packed
         out = np.empty(self.i.shape, dtype=np.uint32)
         for start in range(0, out.size, _QUANTISE_BLOCK):
             block = slice(start, start + _QUANTISE_BLOCK)
@@ -281,12 +371,20 @@ def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
                                interpolation=contract.interpolation)
 
 
-def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=None) -> FarmStreams:
+def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=None,
+                       sink=None) -> FarmStreams:
     """Compute every windmill's period, quantise it, and derive delays, taps and gains.
 
     The periods come from :func:`rast.model.synthesis.synthesise_period` (grid
-    interpolation where the stream oversamples its band, else direct).
+    interpolation where the stream oversamples its band, else direct), on every
+    core: a long stream in pieces, short ones side by side.
     ``progress(name, done, total)`` is called as each windmill's samples are made.
+    ``sink``, when given, receives each windmill's results as they become final,
+    for writing them while the rest is computed (``rast.model.ramfiles.make_farm_files``):
+    ``sink.start(windmill, length)``, then ``sink.period(windmill, start, values)``
+    and ``sink.words(windmill, start, words)`` for pieces of the complex128 period
+    and of the packed words; calls for different windmills may come from different
+    threads at once.
 
     Raises :class:`ConfigError` (naming the windmill) when a stream does not
     fit ``ram_depth`` (the build's stream pool: each stream, and all of them
@@ -321,18 +419,34 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
 
     nearest_km = min(w.echo_range_km for w in farm.windmills)
 
-    def one(w, plan):
+    def one(w, plan, pool):
         report = (lambda done, total: progress(w.name, done, total)) if progress else None
-        period, synthesis = synthesise_period(w, plan.length, farm.radar.wavelength_m, progress=report)
-        i, q, scale, snr = quantise(period, interpolation=farm.interpolation)
+        if sink:
+            sink.start(w, plan.length)
+        period, synthesis = synthesise_period(
+            w, plan.length, farm.radar.wavelength_m, progress=report, pool=pool,
+            emit=(lambda start, values: sink.period(w, start, values)) if sink else None)
+        words, scale, snr = quantise_words(
+            period, interpolation=farm.interpolation, pool=pool,
+            emit=(lambda start, values: sink.words(w, start, values)) if sink else None)
+        pairs = words.view("<i2").reshape(-1, 2)
         return WindmillStream(
-            w, plan, period, i, q, scale, snr,
+            w, plan, period, pairs[:, 0], pairs[:, 1], scale, snr,
             delay_samples=delay_samples(w.range_km, farm.sample_rate_hz),
-            relative_amplitude=(nearest_km / w.echo_range_km) ** 2, synthesis=synthesis)
+            relative_amplitude=(nearest_km / w.echo_range_km) ** 2, synthesis=synthesis, packed=words)
 
-    # One windmill after another: two threads measured no faster on two shared
-    # cores (docs/stream_synthesis.md); seed mode's product uses BLAS's threads.
-    streams = [one(w, p) for w, p in zip(farm.windmills, plans)]
+    # A long stream is computed in pieces on every core, one such windmill at a
+    # time; the short ones (a farm at the automatic rate) one per core.
+    streams = [None] * len(plans)
+    with ComputePool() as pool:
+        inline = ComputePool(1)
+        long = [k for k, p in enumerate(plans) if p.length >= _PARALLEL_WITHIN or pool.workers == 1]
+        for k in long:
+            streams[k] = one(farm.windmills[k], plans[k], pool)
+        short = {k: pool.submit(one, farm.windmills[k], plans[k], inline)
+                 for k in range(len(plans)) if streams[k] is None}
+        for k, future in short.items():
+            streams[k] = future.result()
     streams.sort(key=lambda s: (s.delay_samples, s.windmill.range_km))
 
     # g_l ∝ K_l / scale_l: one stream word of windmill l is worth 1/scale_l of its

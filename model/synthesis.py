@@ -8,7 +8,8 @@ kHz), is then almost entirely redundant. This module evaluates the physics
 (:func:`rast.model.turbine.modulation`) only on a *grid* of every h-th output
 sample and fills the h − 1 samples between grid points with a fixed 8-tap
 Lagrange (degree-7) interpolator: h polyphase filters with the same weights
-in every interval, applied as one matrix product (BLAS, all cores).
+in every interval, applied as matrix products written straight into the
+period.
 
 Error bound (Lagrange's remainder for a tone a·e^{2πi·f·t} on a grid of rate
 f_g): |error| ≤ |a|·max|ω|·(2π·f/f_g)**8 / 8!, with ω(x) = Π (x − node) and
@@ -31,20 +32,31 @@ flash, a table column, the shadow) is narrower than ``MIN_FEATURE_GRID_STEPS``
 grid steps, the stream is evaluated directly instead, and the report says
 why. Streams at the automatic rate (4 × max Doppler) have no redundancy to
 exploit and are always evaluated directly.
+
+Every core is used: the grid (or, directly, the period) and the interpolated
+blocks are computed in pieces on a :class:`ComputePool` of threads (numpy
+releases the GIL), with BLAS held to one thread meanwhile, so that the
+values do not depend on the number of cores. ``emit(start, values)`` hands
+each finished piece of the period to a consumer (the file writers of
+:func:`rast.model.ramfiles.make_farm_files`) while the rest is computed.
 """
 
 from __future__ import annotations
 
+import ctypes
 import math
+import os
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from .config import BladeFlash, WeightTable, Windmill
-from .turbine import max_doppler_hz, modulation
+from .turbine import CHUNK_SAMPLES, max_doppler_hz, modulation
 
-__all__ = ["Synthesis", "synthesise_period", "lagrange_weights", "GRID_BAND_FRACTION",
-           "CHECK_LIMIT_DBC", "MIN_GRID_STEP", "MIN_FEATURE_GRID_STEPS", "TAPS"]
+__all__ = ["Synthesis", "synthesise_period", "lagrange_weights", "ComputePool", "usable_cores",
+           "GRID_BAND_FRACTION", "CHECK_LIMIT_DBC", "MIN_GRID_STEP", "MIN_FEATURE_GRID_STEPS", "TAPS"]
 
 #: Interpolator taps (degree TAPS − 1), nodes −3 … 4 around the interval [0, 1).
 TAPS = 8
@@ -57,8 +69,108 @@ CHECK_LIMIT_DBC = -110.0
 MIN_GRID_STEP = 8
 #: A weighting feature (flash FWHM, table column, shadow width) must span this many check-grid steps.
 MIN_FEATURE_GRID_STEPS = 8
-#: Output rows per matrix product: bounds the work arrays and paces the progress reports.
-ROWS_PER_BLOCK = 1 << 14
+#: Output samples per interpolated block (one task of the pool; a few MB, cache-sized).
+SAMPLES_PER_BLOCK = 1 << 18
+#: Samples per directly evaluated piece, at most (a whole number of the physics' chunks).
+SAMPLES_PER_PIECE = 64 * CHUNK_SAMPLES
+
+
+def usable_cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:                      # not Linux
+        return os.cpu_count() or 1
+
+
+class _Blas:
+    """Set and read OpenBLAS's thread count through its C API (what threadpoolctl
+    does); no effect when numpy's BLAS is not OpenBLAS or cannot be found."""
+    _NAMES = [(f"{prefix}set_num_threads{suffix}", f"{prefix}get_num_threads{suffix}")
+              for prefix in ("scipy_openblas_", "openblas_") for suffix in ("64_", "")]
+
+    def __init__(self):
+        self.set = self.get = None
+        try:
+            with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
+                paths = sorted({line.split(None, 5)[5].strip() for line in maps
+                                if "openblas" in line.lower() and len(line.split(None, 5)) == 6})
+        except OSError:
+            return
+        for path in paths:
+            try:
+                lib = ctypes.CDLL(path)
+            except OSError:
+                continue
+            for set_name, get_name in self._NAMES:
+                if hasattr(lib, set_name) and hasattr(lib, get_name):
+                    self.set, self.get = getattr(lib, set_name), getattr(lib, get_name)
+                    self.set.argtypes, self.set.restype = [ctypes.c_int], None
+                    self.get.argtypes, self.get.restype = [], ctypes.c_int
+                    return
+
+
+_blas = None
+_blas_lock = threading.Lock()
+_blas_users = 0
+_blas_threads = 0
+
+
+class ComputePool:
+    """Threads for pieces of numpy work, BLAS held to one thread while the pool is open.
+
+    numpy's ufuncs and BLAS release the GIL, so pieces computed in threads use
+    every core. OpenBLAS's own threads would compete with them, and on a shared
+    machine they spin waiting for a busy core (the seed-mode grid took 0.9 to
+    1.5 s with them, 0.3 s without); with BLAS single-threaded every product
+    is also the same on any number of cores. ``workers=1`` runs every task
+    inline. Use as a context manager.
+    """
+
+    def __init__(self, workers: int | None = None):
+        self.workers = max(1, workers or usable_cores())
+        self._executor = ThreadPoolExecutor(self.workers) if self.workers > 1 else None
+
+    def submit(self, fn, *args) -> Future:
+        if self._executor is not None:
+            return self._executor.submit(fn, *args)
+        future = Future()
+        try:
+            future.set_result(fn(*args))
+        except BaseException as error:          # raised again by future.result()
+            future.set_exception(error)
+        return future
+
+    def __enter__(self):
+        global _blas, _blas_users, _blas_threads
+        with _blas_lock:
+            if _blas is None:
+                _blas = _Blas()
+            if _blas_users == 0 and _blas.set is not None:
+                _blas_threads = _blas.get()
+                _blas.set(1)
+            _blas_users += 1
+        return self
+
+    def __exit__(self, *exc):
+        global _blas_users
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=exc[0] is not None)
+        with _blas_lock:
+            _blas_users -= 1
+            if _blas_users == 0 and _blas.set is not None:
+                _blas.set(_blas_threads)
+        return False
+
+
+def _in_order(pool: ComputePool, tasks, done=None) -> None:
+    """Run ``tasks`` (``(fn, args, start, stop)``) on the pool; call ``done(start, stop)``
+    in task order as each finishes, in the calling thread."""
+    futures = [(pool.submit(fn, *args), start, stop) for fn, args, start, stop in tasks]
+    for future, start, stop in futures:
+        future.result()
+        if done:
+            done(start, stop)
 
 
 @dataclass(frozen=True)
@@ -100,21 +212,34 @@ def _narrowest_feature_s(windmill: Windmill) -> float:
     return min(widths) * seconds_per_deg if widths else math.inf
 
 
-def _interpolate_rows(grid: np.ndarray, weights: np.ndarray, rows: slice, out: np.ndarray) -> None:
-    """out[j, r] = Σ_tap weights[tap, r]·grid[j + tap] for the rows j of ``rows``
-    (grid[j + _LEFT] is the value at output sample j·h)."""
-    window = np.lib.stride_tricks.sliding_window_view(grid[rows.start:rows.stop + TAPS - 1], TAPS)
-    out.real = window.real @ weights
-    out.imag = window.imag @ weights
+def _evaluate(windmill: Windmill, t_s: np.ndarray, wavelength_m: float, out: np.ndarray,
+              pool: ComputePool, done=None) -> None:
+    """out = modulation(windmill, t_s), in pieces of whole CHUNK_SAMPLES on the pool:
+    the physics sees the same chunks as in one call, so the values are the same."""
+    n = t_s.size
+    chunks = max(1, min(SAMPLES_PER_PIECE // CHUNK_SAMPLES, n // (4 * pool.workers * CHUNK_SAMPLES)))
+    piece = chunks * CHUNK_SAMPLES
+
+    def one(start, stop):
+        out[start:stop] = modulation(windmill, t_s[start:stop], wavelength_m)
+
+    _in_order(pool, [(one, (s, min(n, s + piece)), s, min(n, s + piece)) for s in range(0, n, piece)], done)
 
 
 def synthesise_period(windmill: Windmill, length: int, wavelength_m: float, *,
-                      progress=None) -> tuple[np.ndarray, Synthesis]:
+                      progress=None, emit=None, pool: ComputePool | None = None
+                      ) -> tuple[np.ndarray, Synthesis]:
     """m(t_n) at the ``length`` instants t_n = n·T_sim/length of one period (complex128),
     by grid interpolation when the stream oversamples its band enough, else directly.
 
-    ``progress(done, total)`` is called as output samples are made.
+    ``progress(done, total)`` is called as output samples are made, ``emit(start, values)``
+    when ``values``, the view ``period[start:start + len(values)]``, is final (both in
+    order, in the calling thread).
+    ``pool`` computes the pieces (default: a :class:`ComputePool` of every core).
     """
+    if pool is None:
+        with ComputePool() as pool:
+            return synthesise_period(windmill, length, wavelength_m, progress=progress, emit=emit, pool=pool)
     t_step = windmill.period_s / length
     times = lambda n: np.asarray(n, dtype=float) * t_step           # noqa: E731  (as stream_times)
     f_max = max_doppler_hz(windmill, wavelength_m)
@@ -127,13 +252,17 @@ def synthesise_period(windmill: Windmill, length: int, wavelength_m: float, *,
                  else length)
     h = min(h_band, h_feature, length // (4 * TAPS))
 
-    def direct(reason, check=None):
-        period = np.empty(length, dtype=complex)
-        for start in range(0, length, ROWS_PER_BLOCK * 64):
-            stop = min(length, start + ROWS_PER_BLOCK * 64)
-            period[start:stop] = modulation(windmill, times(np.arange(start, stop)), wavelength_m)
+    def finished(period):
+        def done(start, stop):
+            if emit:
+                emit(start, period[start:stop])
             if progress:
                 progress(stop, length)
+        return done
+
+    def direct(reason, check=None):
+        period = np.empty(length, dtype=complex)
+        _evaluate(windmill, times(np.arange(length)), wavelength_m, period, pool, finished(period))
         return period, Synthesis("direct", 1, length, check, reason)
 
     if h_band < MIN_GRID_STEP:
@@ -151,7 +280,8 @@ def synthesise_period(windmill: Windmill, length: int, wavelength_m: float, *,
     first = -(TAPS + _LEFT % 2)
     count = rows + 2 * TAPS + 2
     count += count % 2
-    grid = modulation(windmill, times(h * np.arange(first, first + count)), wavelength_m)
+    grid = np.empty(count, dtype=complex)
+    _evaluate(windmill, times(h * np.arange(first, first + count)), wavelength_m, grid, pool)
 
     # Midpoint check: the even points (grid 2h) interpolated to the odd ones.
     even, odd = grid[0::2], grid[1::2]
@@ -166,14 +296,24 @@ def synthesise_period(windmill: Windmill, length: int, wavelength_m: float, *,
         return direct(f"the band assumption fails: interpolation on a grid of {2 * h} samples "
                       f"misses by {check_dbc:.1f} dBc RMS (limit {CHECK_LIMIT_DBC:g} dBc)", check_dbc)
 
+    # Interpolation as one real product per block: row j of the output holds the h
+    # samples from j·h on, as (re, im) pairs; its inputs are the 8 grid values from
+    # grid[j + offset], as (re, im) pairs, and the weights act on re and im alike.
     weights = lagrange_weights(np.arange(h) / h)
+    pairs = np.zeros((2 * TAPS, 2 * h))
+    pairs[0::2, 0::2] = weights
+    pairs[1::2, 1::2] = weights
     out = np.empty(rows * h, dtype=complex)
-    view = out.reshape(rows, h)
+    out_rows = out.view(np.float64).reshape(rows, 2 * h)
     offset = -first - _LEFT                       # grid index of output sample −_LEFT·h
-    shifted = grid[offset:]
-    for start in range(0, rows, ROWS_PER_BLOCK):
-        stop = min(rows, start + ROWS_PER_BLOCK)
-        _interpolate_rows(shifted, weights, slice(start, stop), view[start:stop])
-        if progress:
-            progress(min(length, stop * h), length)
+    windows = np.lib.stride_tricks.sliding_window_view(grid[offset:].view(np.float64), 2 * TAPS)[::2]
+
+    def block(start, stop):
+        np.matmul(np.ascontiguousarray(windows[start:stop]), pairs, out=out_rows[start:stop])
+
+    # Whole multiples of 64 rows: BLAS computes a block's last few rows with another
+    # kernel (last bits), so the values then do not depend on the block size.
+    step = max(64, SAMPLES_PER_BLOCK // h // 64 * 64)
+    _in_order(pool, [(block, (j, min(rows, j + step)), j * h, min(length, (j + step) * h))
+                     for j in range(0, rows, step)], finished(out))
     return out[:length], Synthesis("grid", h, count, check_dbc, "")

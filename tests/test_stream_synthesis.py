@@ -18,8 +18,8 @@ import pytest
 from rast.model import fixedpoint as fx
 from rast.model.config import load_config, parse_config
 from rast.model.ramfiles import read_hex, write_hex
-from rast.model.stream import _fir_peak, build_farm_streams, plan_stream
-from rast.model.synthesis import CHECK_LIMIT_DBC, TAPS, lagrange_weights, synthesise_period
+from rast.model.stream import _fir_peak, build_farm_streams, plan_stream, quantise, quantise_words
+from rast.model.synthesis import CHECK_LIMIT_DBC, TAPS, ComputePool, lagrange_weights, synthesise_period
 from rast.model.turbine import max_doppler_hz, modulation, modulation_reference
 
 EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.toml"))
@@ -177,3 +177,74 @@ def test_the_pruned_fir_peak_matches_the_full_fir_where_it_matters():
         for limit in (fx.STREAM.max, 20000, 1000):
             pruned = _fir_peak(i, q, limit)
             assert pruned == full if full > limit else pruned <= limit
+
+
+def plain_quantise(period, interpolation):
+    """The quantiser as first written: whole arrays, scale to the peak, round half to
+    even, and for the FIR rescale until its overshoot fits (rast.model.stream._fir_peak)."""
+    peak = max(np.abs(period.real).max(), np.abs(period.imag).max())
+    scale = fx.STREAM.max / peak
+    while True:
+        i = np.clip(np.round(period.real * scale), fx.STREAM.min, fx.STREAM.max).astype(np.int64)
+        q = np.clip(np.round(period.imag * scale), fx.STREAM.min, fx.STREAM.max).astype(np.int64)
+        if interpolation != "fir":
+            break
+        over = _fir_peak(i, q, fx.STREAM.max)
+        if over <= fx.STREAM.max:
+            break
+        scale *= (fx.STREAM.max - 1) / over
+    x = np.concatenate([period.real, period.imag]) * scale
+    snr = 10 * np.log10(np.sum(x ** 2) / np.sum((x - np.concatenate([i, q])) ** 2))
+    return i, q, scale, snr
+
+
+@pytest.mark.parametrize("interpolation", ["hold", "fir"])
+def test_quantised_words_in_blocks_on_every_core_are_the_plain_quantisers(interpolation, monkeypatch):
+    from rast.model import stream
+    monkeypatch.setattr(stream, "_QUANTISE_BLOCK", 3001)
+    farm = load_config(EXAMPLES[-1])
+    for w in farm.windmills:
+        length = plan_stream(w, farm).length
+        period = modulation(w, np.arange(length) * (w.period_s / length), farm.radar.wavelength_m)
+        i, q, scale, snr = plain_quantise(period, interpolation)
+        for workers in (1, 2, 3):
+            with ComputePool(workers) as pool:
+                words, got_scale, got_snr = quantise_words(period, interpolation=interpolation, pool=pool)
+            np.testing.assert_array_equal(words.astype(np.int64), fx.pack_iq(i, q))
+            assert got_scale == scale
+            assert got_snr == pytest.approx(snr, rel=1e-9)
+        got = quantise(period, interpolation=interpolation)
+        np.testing.assert_array_equal(got[0], i)
+        np.testing.assert_array_equal(got[1], q)
+        assert got[0].dtype == np.int64 and got[2] == scale
+
+
+def test_the_period_is_the_same_on_any_number_of_cores_and_in_any_block_size(monkeypatch):
+    # Grid and direct paths: pieces on 1, 2 or 3 threads, and small blocks, give the
+    # same values bit for bit (BLAS is held to one thread, blocks are whole 64 rows).
+    from rast.model import synthesis
+    farm = stress_windmill(5, {"angle": [0, 180], "width": 4, "gain_db": 10})
+    w = farm.windmills[0]
+    lam = farm.radar.wavelength_m
+    for length in (plan_stream(w, farm).length // 2, 50_000):          # grid, then direct
+        with ComputePool(1) as pool:
+            first, how = synthesise_period(w, length, lam, pool=pool)
+        assert how.method == ("grid" if length > 50_000 else "direct")
+        for workers in (2, 3):
+            with ComputePool(workers) as pool:
+                np.testing.assert_array_equal(synthesise_period(w, length, lam, pool=pool)[0], first)
+        monkeypatch.setattr(synthesis, "SAMPLES_PER_BLOCK", 7777)
+        np.testing.assert_array_equal(synthesise_period(w, length, lam)[0], first)
+        monkeypatch.undo()
+
+
+def test_emitted_pieces_cover_the_period_in_order():
+    farm = stress_windmill(5, {"angle": [0, 180], "width": 4, "gain_db": 10})
+    w = farm.windmills[0]
+    length = plan_stream(w, farm).length // 2
+    pieces = []
+    period, how = synthesise_period(w, length, farm.radar.wavelength_m,
+                                    emit=lambda start, values: pieces.append((start, values.copy())))
+    assert how.method == "grid" and len(pieces) > 1
+    assert [start for start, _ in pieces] == list(np.cumsum([0] + [len(v) for _, v in pieces[:-1]]))
+    np.testing.assert_array_equal(np.concatenate([v for _, v in pieces]), period)
