@@ -52,10 +52,6 @@ class _StreamProgress:
                 print(f"[rast stream] {count / self.total:6.1%}  {count:>11,d}/{self.total:,d} "
                       f"samples  {now - self.start:5.1f} s", file=sys.stderr, flush=True)
 
-    def note(self, text):
-        if self.clock() - self.start >= 1.0:
-            print(f"[rast stream] {text}  {self.clock() - self.start:5.1f} s", file=sys.stderr, flush=True)
-
 
 def _print_synthesis(farm_streams) -> None:
     """How each period was made, where it was not plain direct evaluation
@@ -73,9 +69,9 @@ def _print_synthesis(farm_streams) -> None:
 
 def cmd_stream(args) -> int:
     from rast.errors import read_build
-    from rast.model.ramfiles import write_farm_files
+    from rast.model.ramfiles import make_farm_files
     from rast.model.loadplan import manifest_to_register_writes
-    from rast.model.stream import build_farm_streams, farm_for_build
+    from rast.model.stream import farm_for_build
 
     check_output(args.out, folder=True, option="--out")
     farm = load_config(args.config)
@@ -83,15 +79,18 @@ def cmd_stream(args) -> int:
     if contract is not None:
         farm = farm_for_build(farm, contract)
     progress = _StreamProgress(farm)
-    farm_streams = build_farm_streams(farm, progress=progress)
-    if contract is not None:
-        try:
-            manifest_to_register_writes(farm_streams.manifest(), contract, target="board")
-        except ValueError as error:
-            raise UserError(f"the streams do not fit the build {args.build}: {error}") from None
-    progress.note("writing the files")
+
+    def fits_the_build(farm_streams):       # before any file is moved into --out
+        if contract is not None:
+            try:
+                manifest_to_register_writes(farm_streams.manifest(), contract, target="board")
+            except ValueError as error:
+                raise UserError(f"the streams do not fit the build {args.build}: {error}") from None
+
+    # The files are written while the streams are computed (rast.model.ramfiles).
     try:
-        written = write_farm_files(farm_streams, args.out, build=contract, formats=args.format)
+        farm_streams, written = make_farm_files(farm, args.out, build=contract, formats=args.format,
+                                                progress=progress, check=fits_the_build)
     except OSError as error:        # e.g. a full disk; nothing was moved into place
         raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
     _print_streams(farm_streams)

@@ -1,7 +1,10 @@
-"""Xilinx .coe and Intel .mif RAM files: parsed back by small independent
-readers written from the formats' documentation, they give the stream's
-integers, word for word (I in the low half, signed 16-bit I and Q)."""
+"""RAM files: Xilinx .coe and Intel .mif parsed back by small independent
+readers written from the formats' documentation give the stream's integers,
+word for word (I in the low half, signed 16-bit I and Q); the .hex, .bin and
+.npy files written while the streams are computed are byte for byte those of
+the plain formulations (f-strings, struct, np.save)."""
 
+import dataclasses
 import json
 import re
 
@@ -9,8 +12,9 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.config import parse_config
-from rast.model.ramfiles import write_farm_files
+from rast.model.config import ConfigError, parse_config
+from rast.model.fixedpoint import STREAM, pack_iq
+from rast.model.ramfiles import FORMATS, write_farm_files
 from rast.model.stream import build_farm_streams
 
 CONFIG = {"sample_rate": 20, "radar_frequency": 5350,
@@ -101,3 +105,172 @@ def test_cli_unknown_format_is_a_user_error(tmp_path, capsys):
     assert info.value.code == 2
     assert "--format" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+# ----------------------------------------------------- the writers' bytes
+# The files are the hardware's contract: the fast writers must give the bytes
+# of the plain formulations they replaced, on any block boundary.
+
+def previous_hex(words):
+    """The .hex writer before the table look-up: bytes.hex of the big-endian words."""
+    words = np.asarray(words, dtype=np.int64)
+    return words.astype(">u4").tobytes().hex("\n", 4).encode("ascii") + b"\n" if words.size else b""
+
+
+def test_hex_writer_gives_the_previous_writers_bytes_on_every_block_boundary(tmp_path, monkeypatch):
+    from rast.model import ramfiles
+    monkeypatch.setattr(ramfiles, "_HEX_BLOCK", 1000)
+    rng = np.random.default_rng(11)
+    edges = [0, 1, 9, 10, 15, 16, 0xFFFF, 0x10000, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFE, 0xFFFFFFFF]
+    for size in (0, 1, 999, 1000, 1001, 3 * 1000 + 17):
+        words = np.concatenate([edges, rng.integers(0, 1 << 32, size)])[:max(size, 0) or 0]
+        words = np.asarray(words, dtype=np.int64)
+        for form in (words, words.astype(np.uint32), words.astype("<u4")):
+            ramfiles.write_hex(form, tmp_path / "w.hex")
+            data = (tmp_path / "w.hex").read_bytes()
+            assert data == previous_hex(words)
+            assert data == "".join(f"{int(w):08x}\n" for w in words).encode("ascii")
+
+
+def stream_farm(interpolation, rates):
+    """Windmills with flashes, wire and tower at the given stream rates (None: automatic)."""
+    rng = np.random.default_rng(4)
+    windmills = []
+    for k, rate in enumerate(rates):
+        w = {"name": f"w{k}", "range": 2.0 + k, "num_blades": 3, "rpm": 15 + 3 * k, "num_rcs": 4,
+             "radius": [6.0, 12.0, 18.0, 24.0], "rsc": list(rng.uniform(0.2, 1.5, 4)),
+             "phase_start": list(rng.uniform(0, 360, 4)),
+             "rsc_weighting": {"angle": [0, 180], "width": 8, "gain_db": 10},
+             "wire_enable": True, "wire_radius_min": 2.0, "wire_radius_max": 24.0,
+             "wire_reflectivity": 0.02, "tower_rcs": 5.0}
+        if rate is not None:
+            w["stream_rate"] = rate
+        windmills.append(w)
+    return parse_config({"sample_rate": 20, "radar_frequency": 5350, "interpolation": interpolation,
+                         "windmill": windmills})
+
+
+def small_blocks(monkeypatch):
+    """Every piece of the computation and of the writing small, with ragged ends."""
+    from rast.model import ramfiles, stream, synthesis
+    from rast.model.turbine import CHUNK_SAMPLES
+    monkeypatch.setattr(synthesis, "SAMPLES_PER_BLOCK", 5003)
+    monkeypatch.setattr(synthesis, "SAMPLES_PER_PIECE", 2 * CHUNK_SAMPLES)
+    monkeypatch.setattr(stream, "_QUANTISE_BLOCK", 7001)
+    monkeypatch.setattr(stream, "_PARALLEL_WITHIN", 20000)
+    monkeypatch.setattr(ramfiles, "_HEX_BLOCK", 1009)
+    monkeypatch.setattr(ramfiles, "_DIRECT_MIN_BYTES", 0)          # every file through O_DIRECT
+    monkeypatch.setattr(ramfiles, "_DIRECT_BUFFER", 3 * ramfiles._ALIGN)
+
+
+@pytest.mark.parametrize("interpolation, rates", [
+    ("hold", [2e6, None, 3e5]),          # a grid stream in pieces, a short one, a direct one in pieces
+    ("fir", [None, None, 20_000.0]),     # the FIR's headroom rescales, then the words are written
+])
+def test_files_written_while_computing_are_the_plain_writers_bytes(tmp_path, monkeypatch, interpolation, rates):
+    import struct
+    from rast.model.ramfiles import make_farm_files
+    small_blocks(monkeypatch)
+    farm = stream_farm(interpolation, rates)
+    fs, written = make_farm_files(farm, tmp_path / "made", formats=FORMATS)
+    if interpolation == "hold":
+        assert [s.synthesis.method for s in fs.streams] == ["grid", "direct", "direct"]
+    else:                             # rescaled below full scale for the FIR's overshoot
+        peaks = [max(np.abs(s.period.real).max(), np.abs(s.period.imag).max()) for s in fs.streams]
+        assert any(s.scale < STREAM.max / p * (1 - 1e-9) for s, p in zip(fs.streams, peaks))
+    later = write_farm_files(build_farm_streams(farm), tmp_path / "later", formats=FORMATS)
+    assert sorted(written) == sorted(later)
+    for name in written:
+        assert written[name].read_bytes() == later[name].read_bytes(), name
+    for s in fs.streams:
+        name = s.windmill.name
+        words = [int(w) for w in pack_iq(s.i, s.q)]
+        assert written[f"{name}.hex"].read_bytes() == "".join(f"{w:08x}\n" for w in words).encode()
+        assert written[f"{name}.bin"].read_bytes() == struct.pack(f"<{len(words)}I", *words)
+        saved = tmp_path / "saved.npy"
+        np.save(saved, np.array(s.period))
+        assert written[f"{name}.npy"].read_bytes() == saved.read_bytes()
+
+
+def test_make_farm_files_reports_progress_up_to_every_windmills_length(tmp_path):
+    from rast.model.ramfiles import make_farm_files
+    farm = stream_farm("hold", [2e6, None])
+    seen = {}
+
+    def progress(name, done, total):
+        assert done >= seen.get(name, 0) and done <= total
+        seen[name] = done
+
+    fs, _ = make_farm_files(farm, tmp_path / "out", progress=progress)
+    assert seen == {s.windmill.name: s.plan.length for s in fs.streams}
+
+
+def test_make_farm_files_leaves_nothing_when_it_fails(tmp_path):
+    from rast.model.ramfiles import make_farm_files
+    farm = stream_farm("hold", [2e6, None])
+
+    def refuse(farm_streams):
+        raise RuntimeError("does not fit")
+
+    fresh = tmp_path / "a" / "b"
+    with pytest.raises(RuntimeError):
+        make_farm_files(farm, fresh, check=refuse)
+    assert not (tmp_path / "a").exists()
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    (kept / "old.txt").write_text("x")
+    with pytest.raises(RuntimeError):
+        make_farm_files(farm, kept, check=refuse)
+    assert [p.name for p in kept.iterdir()] == ["old.txt"]
+    with pytest.raises(ConfigError):                      # refused before any work
+        make_farm_files(dataclasses.replace(farm, ram_depth=100), tmp_path / "c")
+    assert not (tmp_path / "c").exists()
+
+
+def test_a_file_written_in_pieces_past_the_page_cache_has_every_byte(tmp_path, monkeypatch):
+    import os
+    from rast.model import ramfiles
+    monkeypatch.setattr(ramfiles, "_DIRECT_BUFFER", 2 * ramfiles._ALIGN)
+    try:                                   # can this file system take O_DIRECT at all?
+        os.close(os.open(tmp_path / "probe", os.O_WRONLY | os.O_CREAT | os.O_DIRECT))
+        direct = True
+    except (AttributeError, OSError):
+        direct = False
+    rng = np.random.default_rng(9)
+    for total in (0, 1, 4095, 4096, 4097, 3 * 8192 + 5):
+        data = rng.integers(0, 256, total, dtype=np.uint8).tobytes()
+        out = ramfiles._OutFile(tmp_path / "f.bin", size=1 << 40)
+        assert out.direct == direct
+        k = 0
+        while k < total:                   # pieces of every size, across the buffer's edges
+            n = int(rng.integers(1, 3 * 4096))
+            out.write(data[k:k + n])
+            k += n
+        out.close()
+        assert (tmp_path / "f.bin").read_bytes() == data
+
+
+def test_a_file_system_that_refuses_o_direct_at_the_first_write_gets_plain_writes(tmp_path, monkeypatch):
+    import errno
+    import os
+    from rast.model import ramfiles
+    monkeypatch.setattr(ramfiles, "_DIRECT_BUFFER", ramfiles._ALIGN)
+    out = ramfiles._OutFile(tmp_path / "f.bin", size=1 << 40)
+    if not out.direct:
+        out.close()
+        pytest.skip("this file system refuses O_DIRECT when the file is opened")
+    real, calls = os.pwrite, []
+
+    def pwrite(fd, data, offset):         # the first write refused, as some file systems do
+        calls.append(offset)
+        if len(calls) == 1:
+            raise OSError(errno.EINVAL, "Invalid argument")
+        return real(fd, data, offset)
+
+    monkeypatch.setattr(os, "pwrite", pwrite)
+    data = np.random.default_rng(2).integers(0, 256, 3 * 4096 + 100, dtype=np.uint8).tobytes()
+    out.write(data[:5000])
+    out.write(data[5000:])
+    out.close()
+    assert len(calls) > 1 and not out.direct
+    assert (tmp_path / "f.bin").read_bytes() == data
