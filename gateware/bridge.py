@@ -89,7 +89,6 @@ class UARTBridge(wiring.Component):
         r_stb = Signal()
         m.d.comb += [bus.addr.eq(addr), bus.w_data.eq(data), bus.w_stb.eq(w_stb),
                      bus.r_stb.eq(r_stb)]
-        m.d.sync += [w_stb.eq(0), r_stb.eq(0)]
 
         with m.FSM():
             with m.State("IDLE"):
@@ -134,17 +133,21 @@ class UARTBridge(wiring.Component):
                     with m.If(n == 3):
                         m.d.sync += w_stb.eq(1)
                         m.next = "WRITE"
-            with m.State("WRITE"):                   # w_stb is high in this cycle
-                m.d.sync += count.eq(count - 1)
-                with m.If(count == 1):
-                    m.next = "ACK"
-                with m.Else():
-                    m.next = "DATA"
-            with m.State("READ"):                    # r_stb is high in this cycle
-                m.next = "READ_DATA"
+            with m.State("WRITE"):                   # w_stb is high until the block takes it
+                with m.If(bus.ready):
+                    m.d.sync += [w_stb.eq(0), count.eq(count - 1)]
+                    with m.If(count == 1):
+                        m.next = "ACK"
+                    with m.Else():
+                        m.next = "DATA"
+            with m.State("READ"):                    # r_stb is high until the block takes it
+                with m.If(bus.ready):
+                    m.d.sync += r_stb.eq(0)
+                    m.next = "READ_DATA"
             with m.State("READ_DATA"):
-                m.d.sync += data.eq(bus.r_data)
-                m.next = "REPLY"
+                with m.If(bus.r_valid):
+                    m.d.sync += data.eq(bus.r_data)
+                    m.next = "REPLY"
             with m.State("REPLY"):
                 m.d.comb += [txq.w_data.eq(data[:8]), txq.w_en.eq(1)]
                 with m.If(txq.w_rdy):

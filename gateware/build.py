@@ -20,7 +20,7 @@ from dataclasses import dataclass, field, asdict
 from pathlib import Path
 
 from ..model.fixedpoint import ReplayContract
-from .capacity import DEVICE_BLOCKS, total_blocks, channel_dsps
+from .capacity import DEVICE_BLOCKS, total_blocks, total_dsps
 from .platforms import make_platform
 from .pll import pll_params
 from .top import BoardTop, DEFAULT_BAUD
@@ -41,28 +41,46 @@ class BuildError(Exception):
 
 @dataclass
 class BuildConfig:
+    """A bitstream build: the target, the clocks and the replay block's
+    parameters. The defaults are the farm-scale engine on the ULX3S-85F: 64
+    channels at the examples' 20 MS/s on a 200 MHz fabric (10 slots per
+    pipeline), an 81,920-word stream pool, a common delay of 8190 and a
+    window of 2046 samples (61.4 + 15.3 km)."""
     board: str | None = "ulx3s-85f"
     device: str | None = None
     package: str | None = None
     speed: str | None = None
     pinmap: str | None = None
-    channels: int = 8
-    clock_mhz: float = 20.0          # the RTS sample clock: the examples' (seed Table 4.1: 20 MHz)
+    channels: int = 64
+    sample_rate_mhz: float = 20.0    # the RTS sample rate: the examples' (seed Table 4.1: 20 MHz)
+    clock_mhz: float = 200.0         # the fabric clock: slots = clock / sample rate
     baud: int = DEFAULT_BAUD
-    # the replay block's parameters, defaults as the contract's
-    pool_words: int = ReplayContract.pool_words
-    max_delay: int = ReplayContract.max_delay
-    max_tap: int = ReplayContract.max_tap
+    pool_words: int = 81920
+    max_delay: int = 8190
+    max_tap: int = 2046
     interpolation: str = ReplayContract.interpolation
     cmult_form: str = ReplayContract.cmult_form
     seed: int = 1
     extra_nextpnr: list = field(default_factory=list)
 
+    @property
+    def slots(self) -> int:
+        """Fabric clocks per sample (``clock_mhz / sample_rate_mhz``, a whole number)."""
+        for name, v in (("Sample rate", self.sample_rate_mhz), ("Clock", self.clock_mhz)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise ValueError(f"{name} must be a positive number of MHz, not {v!r}")
+        m = round(self.clock_mhz / self.sample_rate_mhz)
+        if m < 1 or abs(m * self.sample_rate_mhz - self.clock_mhz) > 1e-9 * self.clock_mhz:
+            raise ValueError(f"Clock {self.clock_mhz:g} MHz must be a whole multiple of the sample rate "
+                             f"{self.sample_rate_mhz:g} MHz (each pipeline serves clock / sample rate "
+                             f"channels, one per clock)")
+        return m
+
     def contract(self) -> ReplayContract:
         return ReplayContract(**self.replay_kwargs())
 
     def replay_kwargs(self):
-        return dict(channels=self.channels, pool_words=self.pool_words,
+        return dict(channels=self.channels, slots=self.slots, pool_words=self.pool_words,
                     max_delay=self.max_delay, max_tap=self.max_tap,
                     interpolation=self.interpolation, cmult_form=self.cmult_form)
 
@@ -177,8 +195,6 @@ def check(cfg: BuildConfig):
     contract = cfg.contract()
     platform = make_platform(cfg.board, device=cfg.device, package=cfg.package, speed=cfg.speed,
                              pinmap=cfg.pinmap)
-    if not (isinstance(cfg.clock_mhz, (int, float)) and cfg.clock_mhz > 0):
-        raise ValueError(f"Clock must be a positive number of MHz, not {cfg.clock_mhz!r}")
     if not (isinstance(cfg.baud, int) and not isinstance(cfg.baud, bool) and cfg.baud > 0):
         raise ValueError(f"Baud rate must be a positive integer, not {cfg.baud!r}")
     f_in_mhz = platform.lookup(platform.default_clk).clock.frequency / 1e6
@@ -187,16 +203,18 @@ def check(cfg: BuildConfig):
     # LFE5U, LFE5UM and LFE5UM5G of one size hold the same block RAMs.
     blocks = DEVICE_BLOCKS.get("LFE5U-" + platform.device.rsplit("-", 1)[-1])
     if blocks is not None:
-        need = total_blocks(contract)
+        c = contract
+        need = total_blocks(c)
         if need > blocks[0]:
-            raise ValueError(f"{contract.channels} channels with a {contract.pool_words}-word stream pool and "
-                             f"delays up to {contract.max_delay} + {contract.max_tap} samples "
-                             f"({contract.interpolation} interpolation) need {need} DP16KD block RAMs; "
-                             f"the {platform.device} has {blocks[0]}")
-        dsps = channel_dsps(contract) * contract.channels
+            raise ValueError(f"{c.channels} channels ({c.pipelines} pipelines of {c.slots} slots) with a "
+                             f"{c.pool_words}-word stream pool and delays up to {c.max_delay} + "
+                             f"{c.max_tap} samples need {need} DP16KD block RAMs; the {platform.device} "
+                             f"has {blocks[0]}")
+        dsps = total_dsps(c)
         if dsps > blocks[1]:
-            raise ValueError(f"{contract.channels} channels with {contract.interpolation} interpolation "
-                             f"need {dsps} MULT18X18D; the {platform.device} has {blocks[1]}")
+            raise ValueError(f"{c.channels} channels ({c.pipelines} pipelines of {c.slots} slots) with "
+                             f"{c.interpolation} interpolation need {dsps} MULT18X18D; the "
+                             f"{platform.device} has {blocks[1]}")
     return contract, platform
 
 
@@ -214,8 +232,9 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
     top = BoardTop(cfg.clock_mhz, cfg.baud, **cfg.replay_kwargs())
     times = {}
     t0 = time.monotonic()
-    progress(f"elaborating {cfg.channels}-channel replay block for {platform.device}-"
-             f"{platform.speed}{platform.package} at {cfg.clock_mhz:g} MHz")
+    progress(f"elaborating {cfg.channels}-channel replay block ({contract.pipelines} pipelines of "
+             f"{contract.slots} slots) for {platform.device}-{platform.speed}{platform.package}: "
+             f"{cfg.sample_rate_mhz:g} MS/s on a {cfg.clock_mhz:g} MHz fabric")
     plan = platform.prepare(top, name=NAME, debug_verilog=False)
     plan.extract(out)
     times["elaborate"] = round(time.monotonic() - t0, 1)
@@ -223,7 +242,9 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
     report = {
         "target": {"board": cfg.board, "device": platform.device, "package": platform.package,
                    "speed": str(platform.speed)},
-        "config": {"channels": cfg.channels, "clock_mhz": cfg.clock_mhz, "baud": cfg.baud,
+        "config": {"channels": cfg.channels, "sample_rate_mhz": cfg.sample_rate_mhz,
+                   "clock_mhz": cfg.clock_mhz, "slots": contract.slots,
+                   "pipelines": contract.pipelines, "baud": cfg.baud,
                    "pool_words": cfg.pool_words, "max_delay": cfg.max_delay,
                    "max_tap": cfg.max_tap, "interpolation": cfg.interpolation,
                    "cmult_form": cfg.cmult_form, "seed": cfg.seed},
@@ -234,13 +255,15 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
                  "timeout_cycles": top.system.timeout},
         # What the bitstream replays, as `rast stream --build` and `rast load` read it.
         "build": ReplayContract(**cfg.replay_kwargs(),
-                                sample_rate_hz=round(top.pll.f_out_mhz * 1e6)).to_dict(),
+                                sample_rate_hz=round(top.pll.f_out_mhz * 1e6 / contract.slots)).to_dict(),
         "memory": {
             "pool_words": contract.pool_words,
             "delay_samples": {"common": contract.max_delay, "tap": contract.max_tap},
             "latency_samples": contract.latency,
-            # ADC pins to DAC pins at zero delay: L + the board's I/O stages (docs/fixed_point.md)
+            # ADC pins to DAC pins at zero delay: L, the board's input stage, the
+            # block's pipeline and the output stage (docs/fixed_point.md)
             "board_latency_samples": contract.board_latency,
+            "output_cycles": contract.output_cycles,
         },
     }
     if not run_tools:
@@ -266,13 +289,13 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
     def u(key):
         return util.get(key, {"used": 0, "available": 0})
     met = bool(clocks) and all(c["achieved_mhz"] >= c["constraint_mhz"] for c in clocks.values())
-    sample_clock = max(clocks, key=lambda k: clocks[k]["constraint_mhz"]) if clocks else None
+    fabric = max(clocks, key=lambda k: clocks[k]["constraint_mhz"]) if clocks else None
     report["timing"] = {
         "met": met,
         "clocks": clocks,
-        "sample_clock": sample_clock,
-        "fmax_mhz": clocks[sample_clock]["achieved_mhz"] if sample_clock else None,
-        "critical_path": critical_path(rep, sample_clock) if sample_clock else {},
+        "fabric_clock": fabric,
+        "fmax_mhz": clocks[fabric]["achieved_mhz"] if fabric else None,
+        "critical_path": critical_path(rep, fabric) if fabric else {},
     }
     report["resources"] = {
         "luts": u("TRELLIS_COMB"), "ffs": u("TRELLIS_FF"), "dsps": u("MULT18X18D"),

@@ -17,13 +17,13 @@ converters sample on the clock's falling/rising edge respectively, see the
 pin map), and ``dac_iq`` high marks the I half of each sample.
 """
 
-from amaranth.hdl import Elaboratable, Module, Signal, ClockSignal, Const
+from amaranth.hdl import Elaboratable, Module, Signal, ClockSignal, Const, Mux, signed
 from amaranth.lib import io, wiring, stream
 from amaranth.lib.wiring import In, Out
 
 from ..hdl.iq import IQ
 from ..hdl.replay_top import WindFarmReplay
-from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY
+from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG
 from .bridge import UARTBridge
 from .pll import ECP5PLL, pll_params
 from .uart import divisor as uart_divisor
@@ -40,7 +40,7 @@ class ReplaySystem(wiring.Component):
     Parameters
     ----------
     clk_hz : float
-        Sample clock (sets the UART divisor and the frame timeout).
+        Fabric clock (sets the UART divisor and the frame timeout).
     baud : int
     timeout_s : float
         Frame timeout of the bridge.
@@ -83,20 +83,28 @@ class ReplaySystem(wiring.Component):
 
 class SampleIO(wiring.Component):
     """The board's sample path outside the replay block: ADC pins to a sample
-    stream, a sample stream to DAC pins, and the converters' clocks.
+    stream, a sample stream to DAC pins, and the converters' clocks, all in
+    the fabric clock domain.
 
-    ADC: one ``io.DDRBuffer`` (an ``IDDRX1F`` per pin on the ECP5; I is the
-    rising-edge half, Q the falling-edge half), then one fabric register.
-    DAC: one fabric register, then one ``io.DDRBuffer`` (``ODDRX1F``: I while
-    the clock is high, Q while it is low). ``adc_clk``, ``dac_clk`` and
-    ``dac_iq`` are constant 1/0 pairs through ``ODDRX1F``: the sample clock
-    forwarded, and the I-half marker. Continuous: ``adc.valid`` is always 1,
-    ``dac.ready`` always 1.
+    The converters run at the sample rate, f_clk / ``slots``. Their clocks
+    (``adc_clk``, ``dac_clk``) and the DAC's I marker (``dac_iq``) are made
+    from the replay block's slot counter: a pattern high for the first
+    ``slots`` half clocks of each period (the first half of the sample), low
+    for the rest, registered and driven through an ``ODDRX1F`` like the DAC's
+    data, so clocks and data leave the pins together (at ``slots`` = 1 it is
+    the fabric clock forwarded). No clock crosses to another domain.
 
-    Latency (sample clocks, ``rast.model.fixedpoint``): ADC pin sample to the
-    edge at which a consumer of ``adc`` takes it, ``BOARD_INPUT_LATENCY`` (3);
-    from the edge at which the producer of ``dac`` loads its output register
-    to the DAC pin sample, ``BOARD_OUTPUT_LATENCY`` (4).
+    ADC: one ``io.DDRBuffer`` (an ``IDDRX1F`` per pin, taking the pins on
+    every rising and falling edge of the fabric clock); the I half of sample k
+    is the pins' value at the k-th rising edge of ``adc_clk`` as driven, the Q
+    half at its falling edge. Both go into one register, offered to the block
+    until it takes them. DAC: the block's output is taken once per period
+    (``dac.ready`` in its last clock) into a register, and driven I while
+    ``dac_clk`` is high, Q while it is low.
+
+    Latency, ADC pin sample to DAC pin sample, in samples:
+    ``rast.model.fixedpoint.board_latency`` (checked by
+    ``tests/test_cosim_board_io.py``).
 
     Parameters
     ----------
@@ -104,45 +112,70 @@ class SampleIO(wiring.Component):
         Objects with I/O ports ``data`` (16 bits) and ``clk``, and for the DAC
         also ``iq``: the ``rts_adc``/``rts_dac`` resources requested with
         ``dir="-"``, or ``io.SingleEndedPort`` s in a simulation.
+    slots : int
+        Fabric clocks per sample (the replay block's M).
     domain : str
-        The sample clock domain.
+        The fabric clock domain.
 
     Members
     -------
     adc : Out(stream.Signature(IQ(16)))
     dac : In(stream.Signature(IQ(16)))
+    slot : In(range(slots))
+        The replay block's slot counter (0 in a period's first clock).
     """
 
-    input_latency = BOARD_INPUT_LATENCY
-    output_latency = BOARD_OUTPUT_LATENCY
-
-    def __init__(self, adc_port, dac_port, domain="sync"):
-        self._adc, self._dac, self._domain = adc_port, dac_port, domain
+    def __init__(self, adc_port, dac_port, slots=1, domain="sync"):
+        if not isinstance(slots, int) or isinstance(slots, bool) or slots < 1:
+            raise ValueError(f"Slots must be a positive integer, not {slots!r}")
+        self._adc, self._dac, self._slots, self._domain = adc_port, dac_port, slots, domain
         super().__init__({
             "adc": Out(stream.Signature(IQ(INPUT_WIDTH))),
             "dac": In(stream.Signature(IQ(OUTPUT_WIDTH))),
+            "slot": In(range(max(2, slots))),
         })
 
     def elaborate(self, platform):
         m = Module()
-        d = self._domain
+        d, M = self._domain, self._slots
         m.submodules.adc_data = adc_data = io.DDRBuffer("i", self._adc.data, i_domain=d)
         m.submodules.adc_clk = adc_clk = io.DDRBuffer("o", self._adc.clk, o_domain=d)
         m.submodules.dac_data = dac_data = io.DDRBuffer("o", self._dac.data, o_domain=d)
         m.submodules.dac_clk = dac_clk = io.DDRBuffer("o", self._dac.clk, o_domain=d)
         m.submodules.dac_iq = dac_iq = io.DDRBuffer("o", self._dac.iq, o_domain=d)
-        m.d.comb += [adc_clk.o[0].eq(1), adc_clk.o[1].eq(0),
-                     dac_clk.o[0].eq(1), dac_clk.o[1].eq(0),
-                     dac_iq.o[0].eq(1), dac_iq.o[1].eq(0)]
 
-        # Registered at the I/O: the DDR cells, then one fabric register each way.
+        # The pattern's two half clocks of this slot, registered: high while
+        # the half clock's index within the period is below M.
+        hi0, hi1 = Signal(), Signal()
+        m.d[d] += [hi0.eq(2 * self.slot < M), hi1.eq(2 * self.slot + 1 < M)]
+        for cell in (adc_clk, dac_clk, dac_iq):
+            m.d.comb += [cell.o[0].eq(hi0), cell.o[1].eq(hi1)]
+
+        # ADC: the pin clock's rising edge is PIN_LAG clocks after the slot-0
+        # clock that made it; the IDDRX1F shows a pin sample the clock after.
+        i_at, q_at = (PIN_LAG + 1) % M, (PIN_LAG + 1 + M // 2) % M
+        q_bit = 1 if M % 2 else 0          # odd M: Q is the falling-edge sample
+        i_held = Signal(signed(INPUT_WIDTH))
         x = Signal(IQ(INPUT_WIDTH))
-        m.d[d] += [x.re.eq(adc_data.i[0]), x.im.eq(adc_data.i[1])]
-        m.d.comb += [self.adc.payload.eq(x), self.adc.valid.eq(1), self.dac.ready.eq(1)]
+        valid = Signal()
+        with m.If(self.slot == i_at):
+            m.d[d] += i_held.eq(adc_data.i[0])
+        with m.If(self.slot == q_at):
+            m.d[d] += [x.re.eq(adc_data.i[0] if M == 1 else i_held), x.im.eq(adc_data.i[q_bit]),
+                       valid.eq(1)]
+        with m.Elif(self.adc.ready):
+            m.d[d] += valid.eq(0)
+        m.d.comb += [self.adc.payload.eq(x), self.adc.valid.eq(valid)]
+
+        # DAC: one sample per period, taken in its last clock, I then Q.
         y = Signal(IQ(OUTPUT_WIDTH))
-        with m.If(self.dac.valid):
-            m.d[d] += y.eq(self.dac.payload)
-        m.d.comb += [dac_data.o[0].eq(y.re), dac_data.o[1].eq(y.im)]
+        m.d.comb += self.dac.ready.eq(self.slot == M - 1)
+        with m.If(self.dac.ready):
+            m.d[d] += y.eq(Mux(self.dac.valid, self.dac.payload, 0))
+        d0, d1 = Signal(signed(OUTPUT_WIDTH)), Signal(signed(OUTPUT_WIDTH))
+        m.d[d] += [d0.eq(Mux(2 * self.slot < M, y.re, y.im)),
+                   d1.eq(Mux(2 * self.slot + 1 < M, y.re, y.im))]
+        m.d.comb += [dac_data.o[0].eq(d0), dac_data.o[1].eq(d1)]
         return m
 
 
@@ -153,8 +186,8 @@ class BoardCore(wiring.Component):
     Parameters
     ----------
     clk_hz : float
-        Sample clock (UART divisor, frame timeout, ``SAMPLE_RATE`` register
-        unless ``sample_rate_hz`` is given).
+        Fabric clock (UART divisor, frame timeout; ``SAMPLE_RATE`` register
+        = clk_hz / slots unless ``sample_rate_hz`` is given).
     adc_port, dac_port :
         As for :class:`SampleIO`.
     baud, divisor, timeout :
@@ -169,9 +202,10 @@ class BoardCore(wiring.Component):
 
     def __init__(self, clk_hz, adc_port, dac_port, baud=DEFAULT_BAUD, *, divisor=None, timeout=None,
                  **replay_kwargs):
-        replay_kwargs.setdefault("sample_rate_hz", round(clk_hz))
+        slots = replay_kwargs.get("slots", 1)
+        replay_kwargs.setdefault("sample_rate_hz", round(clk_hz / slots))
         self.system = ReplaySystem(clk_hz, baud, divisor=divisor, timeout=timeout, **replay_kwargs)
-        self.sample_io = SampleIO(adc_port, dac_port)
+        self.sample_io = SampleIO(adc_port, dac_port, slots)
         super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "overflow": Out(1)})
 
     def elaborate(self, platform):
@@ -180,7 +214,8 @@ class BoardCore(wiring.Component):
         m.submodules.sample_io = sio = self.sample_io
         wiring.connect(m, sio.adc, sys_.i)
         wiring.connect(m, sys_.o, sio.dac)
-        m.d.comb += [sys_.rx.eq(self.rx), self.tx.eq(sys_.tx), self.overflow.eq(sys_.overflow)]
+        m.d.comb += [sys_.rx.eq(self.rx), self.tx.eq(sys_.tx), self.overflow.eq(sys_.overflow),
+                     sio.slot.eq(sys_.replay.slot)]
         return m
 
 
@@ -190,7 +225,8 @@ class BoardTop(Elaboratable):
     Parameters
     ----------
     clock_mhz : float
-        RTS sample clock made by the PLL.
+        Fabric clock made by the PLL: ``slots`` (in ``replay_kwargs``) times
+        the RTS sample rate.
     baud : int
     **replay_kwargs
         Passed to :class:`WindFarmReplay`.
@@ -220,7 +256,8 @@ class BoardTop(Elaboratable):
         adc = platform.request("rts_adc", 0, dir="-")
         dac = platform.request("rts_dac", 0, dir="-")
         # The SAMPLE_RATE register states the rate the PLL really makes.
-        self.core = core = BoardCore(f, adc, dac, self.baud, sample_rate_hz=round(f),
+        slots = self.replay_kwargs.get("slots", 1)
+        self.core = core = BoardCore(f, adc, dac, self.baud, sample_rate_hz=round(f / slots),
                                      **self.replay_kwargs)
         self.system = core.system
         m.submodules.core = core

@@ -380,16 +380,17 @@ class ChannelPipeline(wiring.Component):
                             m.d.comb += getattr(nxt, f"u{k}").eq(mac_val)
 
         # The ring: head -> [A] -> mid -> [B] -> ... -> head.
-        if M == 1:
-            m.d.sync += head.eq(nxt)
-        elif M == 2:
-            m.d.sync += head.eq(nxt)
-        else:
-            ring = [Signal(SL, init=init_at(j), name=f"st_ring{j}") for j in range(2, M)]
+        ring = [Signal(SL, init=init_at(j), name=f"st_ring{j}") for j in range(2, M)]
+        if ring:
             m.d.sync += ring[0].eq(nxt)
             for j in range(1, len(ring)):
                 m.d.sync += ring[j].eq(ring[j - 1])
             m.d.sync += head.eq(ring[-1])
+        else:
+            m.d.sync += head.eq(nxt)
+        #: Every slot's state in the ring (for the formal checks): the head, the
+        #: state part of the update's second stage (M >= 2), the rest.
+        self.ring_states = [head] + ([SL(mid.as_value()[:SL.size])] if M > 1 else []) + ring
 
         # Mirrors of pending and bank, per slot, from the completed update.
         bslot = _delay(m, vslot, self.update_stage, "bslot")
@@ -407,7 +408,10 @@ class ChannelPipeline(wiring.Component):
         copies = 2 if interp == "linear" else 1
         caches = []
         for k in range(copies):
-            mem = Memory(shape=unsigned(2 * STREAM_WIDTH), depth=depth, init=[])
+            # distributed RAM: a few words per slot, read and written every clock
+            # (Yosys would otherwise take the registered read into a block RAM)
+            mem = Memory(shape=unsigned(2 * STREAM_WIDTH), depth=depth, init=[],
+                         attrs={"ram_style": "distributed"})
             m.submodules[f"cache{k}"] = mem
             wp = mem.write_port()
             m.d.comb += [wp.en.eq(self.fill_en), wp.data.eq(self.fill_data),
@@ -438,20 +442,24 @@ class ChannelPipeline(wiring.Component):
         m.d.sync += [a1.eq(wa), b1.eq(wb), f1.eq(wf), mute1.eq(mute_out)]
         word = Signal(IQ(STREAM_WIDTH), name="word")
         mute = _delay(m, mute1, 3, "word_mute")
-        f2 = _delay(m, f1, 1, "word_f")
-        for part in ("re", "im"):
-            diff = Signal(signed(STREAM_WIDTH + 1), name=f"word_diff_{part}")
-            a2 = Signal(signed(STREAM_WIDTH), name=f"word_a2_{part}")
-            m.d.sync += [diff.eq(getattr(b1, part) - getattr(a1, part)), a2.eq(getattr(a1, part))]
-            mul = RegisteredMultiplier(STREAM_WIDTH + 1, INTERP_FRAC_BITS + 1, input_reg=True)
-            m.submodules[f"lin_mul_{part}"] = mul
-            m.d.comb += [mul.en.eq(1), mul.a.eq(diff), mul.b.eq(f2)]
-            # a*2**16 + 2**15: the rounding constant rides with a, so the sum
-            # and the rounding are one adder
-            a3 = Signal(signed(STREAM_WIDTH + INTERP_FRAC_BITS + 1), name=f"word_a3_{part}")
-            m.d.sync += a3.eq((a2 << INTERP_FRAC_BITS) + (1 << (INTERP_FRAC_BITS - 1)))
-            a4 = _delay(m, a3, 1, f"word_a4_{part}")
-            m.d.sync += getattr(word, part).eq(Mux(mute, 0, (a4 + mul.o) >> INTERP_FRAC_BITS))
+        if interp == "hold":
+            # the word itself, as late as the interpolated one would be
+            a4 = _delay(m, a1, 3, "word_hold")
+            m.d.sync += word.eq(Mux(mute, 0, a4))
+        else:
+            f2 = _delay(m, f1, 1, "word_f")
+            for part in ("re", "im"):
+                diff = Signal(signed(STREAM_WIDTH + 1), name=f"word_diff_{part}")
+                a2 = Signal(signed(STREAM_WIDTH), name=f"word_a2_{part}")
+                m.d.sync += [diff.eq(getattr(b1, part) - getattr(a1, part)), a2.eq(getattr(a1, part))]
+                mul = RegisteredMultiplier(STREAM_WIDTH + 1, INTERP_FRAC_BITS + 1, input_reg=True)
+                m.submodules[f"lin_mul_{part}"] = mul
+                m.d.comb += [mul.en.eq(1), mul.a.eq(diff), mul.b.eq(f2)]
+                # a*2**16 + 2**15: the rounding constant rides with a (in its
+                # zero low bits), so the sum and the rounding are one adder
+                a4 = _delay(m, a2, 2, f"word_a4_{part}")
+                a4r = Cat(Const(1 << (INTERP_FRAC_BITS - 1), INTERP_FRAC_BITS), a4).as_signed()
+                m.d.sync += getattr(word, part).eq(Mux(mute, 0, (a4r + mul.o) >> INTERP_FRAC_BITS))
 
         # ---- the FIR's serial MAC: one tap per visit of a slot -------------------
         if fir:
@@ -509,8 +517,9 @@ class ChannelPipeline(wiring.Component):
         for p, row in enumerate(coefs):
             for k, v in enumerate(row):
                 rom_init[(p << TB) | k] = v
+        # in logic, not a block RAM: the block RAMs are the pool's and the delays'
         m.submodules.coef_rom = rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=len(rom_init),
-                                             init=rom_init)
+                                             init=rom_init, attrs={"rom_style": "logic"})
         rd = rom.read_port(domain="comb")
         m.d.comb += [rd.addr.eq(Cat(st.tap, st.cphase)), cache.addr.eq(cache_addr(st.rpos))]
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})

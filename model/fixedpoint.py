@@ -103,8 +103,8 @@ __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
             "delay_depth", "ReplayContract",
-            "DDR_INPUT_LATENCY", "DDR_OUTPUT_LATENCY", "BOARD_INPUT_LATENCY",
-            "BOARD_OUTPUT_LATENCY", "BOARD_LATENCY", "TARGETS", "path_latency"]
+            "DDR_INPUT_LATENCY", "DDR_OUTPUT_LATENCY", "PIN_LAG", "board_input_latency",
+            "board_output_latency", "TARGETS", "path_latency"]
 
 #: The complex product is rounded by this many bits: Q15 x Q15 -> Q15.
 PRODUCT_SHIFT = STREAM_WIDTH - 1
@@ -346,49 +346,55 @@ CMULT_FORMS = ("4mult", "3mult")
 
 # ---------------------------------------------------------------------------
 # The board around the replay block (``rast.gateware.top.SampleIO``), in
-# sample clocks (the board runs one sample per clock). Edges are the rising
-# edges of the sample clock. The block's L counts from the edge at which it
-# accepts input sample n to the edge at which it loads output sample n + L into
-# its output register; the board adds, from the ADC pins' sample to the DAC
-# pins' sample:
+# fabric clocks. Everything runs on the fabric clock; the converters' clocks
+# (at the sample rate, M fabric clocks per period) and the DAC's data are
+# patterns computed from the block's slot counter, registered once, and
+# driven through ODDRX1F cells; the ADC's pins are taken by IDDRX1F cells on
+# every fabric edge and the samples at the ADC clock's rising (I) and falling
+# (Q) edge are kept. Edges are the fabric clock's rising edges.
 #
-# ADC side: Amaranth 0.5 lowers ``io.DDRBuffer("i")`` on the ECP5 to one
-# IDDRX1F per pin and nothing else (``amaranth.vendor._lattice.DDRBufferECP5``:
-# no extra register on the data; only an output's OE gets two). The IDDRX1F
-# (Lattice's ECP5U simulation library) takes the pin into one register on the
-# rising edge t (Q0, the I half) and one on the falling edge t + 1/2 (Q1, the
-# Q half) and moves both into its output register on edge t + 1. The fabric
-# register ``x`` takes them on t + 2, and the block accepts ``x`` on t + 3.
+# IDDRX1F (Lattice's ECP5U simulation library): the pin taken on rising edge
+# e (Q0; Q1 on the falling edge after it) is in the cell's output register
+# from edge e + 1; a fabric register takes it on edge e + 2.
 #
-# DAC side: the block's output register is loaded on edge e; the fabric
-# register ``y`` takes it on e + 1; the ODDRX1F (one per pin, again nothing
-# else on the data) takes D0/D1 on e + 2, passes them on at e + 3, moves D0
-# into its last register on the falling edge e + 3 1/2, and drives D0 on the
-# pin while the clock is high from e + 4 (D1 while it is low from e + 4 1/2).
-# Amaranth's lowering says the same: "The ODDRX1F buffer has two additional
-# pipeline stages" (its OE is delayed by two registers to stay aligned).
+# ODDRX1F: D0/D1 taken on edge E, passed on at E + 1, D0 driven on the pin
+# while the clock is high from E + 2 (D1 while it is low). Amaranth's
+# lowering says the same ("the ODDRX1F buffer has two additional pipeline
+# stages"; only the OE gets registers of its own). So a pattern bit computed
+# in the clock starting at edge c is registered at c + 1, taken by the cell
+# at c + 2 and on the pin from edge c + 4 (PIN_LAG).
 #
 # Neither cell has a model in Yosys's ECP5 library (``cells_bb.v`` declares
 # both as black boxes); ``sim/board_io.py`` models them register for register
 # after Lattice's library and ``tests/test_cosim_board_io.py`` measures the
-# whole path: an impulse on the ADC pins at edge t reaches the DAC pins at
-# edge t + L + DELAY[0] + BOARD_LATENCY.
+# whole path: an impulse on the ADC pins at sample k reaches the DAC pins at
+# sample k + board_latency + COMMON_DELAY + DELAY[0].
 # ---------------------------------------------------------------------------
 
-#: IDDRX1F: from the rising edge that samples the I half to the edge at which
-#: the fabric can take Q0/Q1 (one output register inside the cell, plus the
-#: edge into the fabric).
+#: IDDRX1F: edges from the one that samples a pin to the one on which the
+#: fabric can take it (one output register inside the cell, plus that edge).
 DDR_INPUT_LATENCY = 2
-#: ODDRX1F: from the edge that takes D0/D1 to the rising edge from which D0 is
-#: on the pin (two internal stages).
+#: ODDRX1F: edges from the one that takes D0/D1 to the one from which D0 is on the pin.
 DDR_OUTPUT_LATENCY = 2
-#: ADC pin sample to the block's accepting edge: IDDRX1F (2) + fabric register ``x`` (1).
-BOARD_INPUT_LATENCY = DDR_INPUT_LATENCY + 1
-#: The block's output-register edge to the DAC pin sample: that register (1),
-#: fabric register ``y`` (1), ODDRX1F (2).
-BOARD_OUTPUT_LATENCY = 1 + 1 + DDR_OUTPUT_LATENCY
-#: Everything the board adds to the block's L, ADC pins to DAC pins: 7.
-BOARD_LATENCY = BOARD_INPUT_LATENCY + BOARD_OUTPUT_LATENCY
+#: Fabric clocks from the clock that computes a pin pattern bit to the edge
+#: from which the pin shows it: the fabric register, the cell's input edge, its two stages.
+PIN_LAG = 2 + DDR_OUTPUT_LATENCY
+
+
+def board_input_latency(slots: int) -> int:
+    """Samples from an ADC pin sample to the period that accepts it: the ADC
+    clock's rising edge on the pin (PIN_LAG after the period's first clock),
+    the Q half M/2 fabric clocks later, the IDDRX1F, the sample register,
+    then the next period start."""
+    return -(-(PIN_LAG + DDR_INPUT_LATENCY + slots // 2) // slots)
+
+
+def board_output_latency(contract: "ReplayContract") -> int:
+    """Samples from the period that accepts input n to the one whose pattern
+    drives output n on the DAC pins: the block's ``output_cycles``, the
+    output FIFO, the DAC register (taken in a period's last clock)."""
+    return -(-(contract.output_cycles + 2) // contract.slots)
+
 
 #: Where a manifest is loaded: the board top (``rast.gateware.top.BoardTop``,
 #: ADC and DAC pins, converters) or the bare replay block (its stream ports).
@@ -397,27 +403,26 @@ TARGETS = ("board", "block")
 
 def board_latency(contract: "ReplayContract") -> int:
     """Samples from the ADC pins' sample to the DAC pins' sample of the board
-    top (``rast.gateware.top``) at zero programmed delay: the block's L, the
-    board's I/O stages, and the clocks output n spends inside the engine
-    (``engine_output_cycles`` and the output FIFO's one), rounded up to whole
-    samples, which the board sees and a step count does not."""
-    transport = -(-(contract.output_cycles + 1) // contract.slots)
-    return BOARD_LATENCY + contract.latency + transport
+    top (``rast.gateware.top``) at zero programmed delay, converters not
+    included: the block's L, the input stage and the block's pipeline with
+    the output stage. The pin patterns' PIN_LAG is on both sides and cancels."""
+    return board_input_latency(contract.slots) + contract.latency + board_output_latency(contract)
 
 
-def path_latency(block_latency: int, target: str, adc_latency: int = 0, dac_latency: int = 0) -> int:
+def path_latency(contract: "ReplayContract", target: str, adc_latency: int = 0,
+                 dac_latency: int = 0) -> int:
     """Fixed samples between a sample and its echo at zero programmed delay.
 
     ``"block"``: the replay block's ``L`` from its input to its output port.
     ``"board"``: from the analogue input of the ADC to the analogue output of
-    the DAC: ``adc_latency + BOARD_INPUT_LATENCY + L + BOARD_OUTPUT_LATENCY +
-    dac_latency`` (the converters' own pipelines, in RTS samples, are not in
-    the gateware; they come from the config's ``adc_latency``/``dac_latency``)."""
+    the DAC: ``adc_latency + board_latency + dac_latency`` (the converters'
+    own pipelines, in RTS samples, are not in the gateware; they come from
+    the config's ``adc_latency``/``dac_latency``)."""
     if target not in TARGETS:
         raise ValueError(f"Target must be one of {', '.join(TARGETS)}, not {target!r}")
     if target == "block":
-        return block_latency
-    return adc_latency + BOARD_INPUT_LATENCY + block_latency + BOARD_OUTPUT_LATENCY + dac_latency
+        return contract.latency
+    return adc_latency + board_latency(contract) + dac_latency
 
 
 def guard_bits(channels: int) -> int:

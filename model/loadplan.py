@@ -5,8 +5,8 @@ manifest made for another build."""
 
 from pathlib import Path
 
-from .fixedpoint import (ReplayContract, GAIN_WIDTH, BOARD_INPUT_LATENCY, BOARD_OUTPUT_LATENCY,
-                         TARGETS, path_latency)
+from .fixedpoint import (ReplayContract, GAIN_WIDTH, TARGETS, path_latency, board_input_latency,
+                         board_output_latency)
 from .powerup import ChannelInit
 from .regmap import register_map, CTRL_ENABLE, CTRL_SWAP
 
@@ -67,10 +67,11 @@ def _fixed_latency(manifest, contract, target):
     if target == "block":
         return L, f"the replay block's fixed latency of {L} samples"
     adc, dac = cal["adc_latency_samples"], cal["dac_latency_samples"]
-    total = path_latency(L, "board", adc, dac)
-    return total, (f"the board's fixed latency of {total} samples (replay block L {L} + board input "
-                   f"stage {BOARD_INPUT_LATENCY} + board output stage {BOARD_OUTPUT_LATENCY} + ADC "
-                   f"{adc} (adc_latency) + DAC {dac} (dac_latency))")
+    total = path_latency(contract, "board", adc, dac)
+    return total, (f"the board's fixed latency of {total} samples (replay block L {L} + ADC pins to "
+                   f"the block {board_input_latency(contract.slots)} + the block's pipeline to the "
+                   f"DAC pins {board_output_latency(contract)} + ADC {adc} (adc_latency) + DAC {dac} "
+                   f"(dac_latency))")
 
 
 def _channel_values(manifest, contract, target="block"):
@@ -172,7 +173,8 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
 
     * ``"board"``: the board top (``rast.gateware.top.BoardTop``), loaded by
       ``rast load`` or baked in for power-up. ``COMMON_DELAY + DELAY[l] =
-      delay_samples - L - BOARD_INPUT_LATENCY - BOARD_OUTPUT_LATENCY - adc - dac``, with the
+      delay_samples - board_latency - adc - dac`` (``board_latency``: L, the
+      board's input stage and the block's pipeline to the DAC pins), with the
       converters' latencies from the manifest's ``calibration``
       (``adc_latency_samples``, ``dac_latency_samples``; 0 when a manifest has
       none): the echo leaves the DAC ``delay_samples`` after the pulse reached

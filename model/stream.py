@@ -335,13 +335,11 @@ class FarmStreams:
             "fixed_point": {"stream_width": fx.STREAM_WIDTH, "gain_width": fx.GAIN_WIDTH,
                             "gain_frac": fx.GAIN_FRAC, "phase_frac_bits": fx.PHASE_FRAC_BITS},
             # Range calibration (RTS samples): the converters' latencies from the
-            # config and, for the reader, the board's own stages. Loading into a
-            # board subtracts all of them and the block's L from the common delay
+            # config. Loading into a board subtracts them and the board's own
+            # latency (the build's: its slots and pipeline) from the common delay
             # (rast.model.loadplan.manifest_to_register_writes, target "board").
             "calibration": {"adc_latency_samples": farm.adc_latency,
-                            "dac_latency_samples": farm.dac_latency,
-                            "board_input_latency_samples": fx.BOARD_INPUT_LATENCY,
-                            "board_output_latency_samples": fx.BOARD_OUTPUT_LATENCY},
+                            "dac_latency_samples": farm.dac_latency},
             "windmills": windmills,
             "taps": self.taps,
             "registers": {"channels": channels},

@@ -1,6 +1,6 @@
 """build the ECP5 bitstream of the replay block and a JSON timing/resource report
 
-``rast build [--board ulx3s-85f] [--channels N] [--clock-mhz F] --out DIR``
+``rast build [--board ulx3s-85f] [--channels N] [--sample-rate-mhz FS] [--clock-mhz FCLK] --out DIR``
 runs Yosys, nextpnr-ecp5 and ecppack (YoWASP builds from PyPI), writes
 ``DIR/rast_top.bit`` and ``DIR/report.json``, and exits 1 when the design
 misses timing at the requested clock or a tool fails. Mistakes in the
@@ -24,10 +24,16 @@ def add_arguments(p):
     g.add_argument("--package", default="BG381", help="plain device package (default BG381)")
     g.add_argument("--speed", default="6", help="plain device speed grade (default 6)")
     g.add_argument("--pinmap", help="JSON pin map for a plain device (default: the ULX3S balls)")
+    from rast.gateware.build import BuildConfig
+    dflt = BuildConfig()
     d = p.add_argument_group("design")
-    add_replay_arguments(d, channels=8)
-    d.add_argument("--clock-mhz", type=float, default=20.0,
-                   help="RTS sample clock, MHz (default 20, the examples' rate; the block closes 100)")
+    add_replay_arguments(d, channels=dflt.channels, defaults=dflt, slots=False)
+    d.add_argument("--sample-rate-mhz", type=float, default=dflt.sample_rate_mhz,
+                   help=f"RTS sample rate, MHz: the converters' clock (default {dflt.sample_rate_mhz:g}, "
+                        "the examples' rate)")
+    d.add_argument("--clock-mhz", type=float, default=dflt.clock_mhz,
+                   help=f"fabric clock, MHz: a whole multiple M of the sample rate; each pipeline "
+                        f"serves M channels (default {dflt.clock_mhz:g})")
     d.add_argument("--baud", type=int, default=1_000_000, help="host UART baud rate (default 1000000)")
     p.add_argument("--seed", type=int, default=1, help="nextpnr placer seed (default 1)")
     p.add_argument("--out", required=True, help="output folder (bitstream, logs, report.json)")
@@ -47,8 +53,8 @@ def run(args) -> int:
         raise UserError("--pinmap is for a plain device: give --device too")
     board = None if args.device else (args.board or "ulx3s-85f")
     cfg = BuildConfig(board=board, device=args.device, package=args.package, speed=args.speed,
-                      pinmap=args.pinmap, channels=args.channels, clock_mhz=args.clock_mhz,
-                      baud=args.baud, pool_words=args.pool_words, max_delay=args.max_delay,
+                      pinmap=args.pinmap, channels=args.channels, sample_rate_mhz=args.sample_rate_mhz,
+                      clock_mhz=args.clock_mhz, baud=args.baud, pool_words=args.pool_words, max_delay=args.max_delay,
                       max_tap=args.max_tap, interpolation=args.interpolation,
                       cmult_form=args.cmult_form, seed=args.seed)
     try:
@@ -69,8 +75,11 @@ def run(args) -> int:
     for k in ("luts", "ffs", "dsps", "block_rams"):
         print(f"{k:>10}: {r[k]['used']} / {r[k]['available']}")
     m = rep["memory"]
+    cf = rep["config"]
+    print(f"{cf['channels']} channels: {cf['pipelines']} pipelines of {cf['slots']} slots, "
+          f"{cf['sample_rate_mhz']:g} MS/s on a {cf['clock_mhz']:g} MHz fabric")
     print(f"stream pool: {m['pool_words']} words; delay samples: "
-          f"{m['delay_samples']['common']} common, then a window of {m['delay_samples']['tap']} per channel")
+          f"{m['delay_samples']['common']} common, then a window of {m['delay_samples']['tap']}")
     print(f"wrote {args.out}/{rep['bitstream']} and {args.out}/report.json")
     cp = t["critical_path"]
     if not t["met"]:

@@ -45,6 +45,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--channels", type=int, default=None,
                    help="channels of the replay block (default: one per windmill)")
+    p.add_argument("--slots", type=int, default=1,
+                   help="fabric clocks per sample M, each pipeline serving M channels (default 1: the "
+                        "quickest to simulate, the same integers; the default bitstream has 10)")
     p.add_argument("--noise-rms", type=float, default=0.0, metavar="FS",
                    help="receiver noise inside each pulse, RMS as a fraction of full scale (default 0: "
                         "the SFDR then measures the replay itself)")
@@ -128,7 +131,8 @@ def run(args) -> int:
         return 2
     t0 = time.monotonic()
     try:
-        e = prepare(config, args.seconds, channels=args.channels, noise_rms=args.noise_rms)
+        e = prepare(config, args.seconds, channels=args.channels, slots=args.slots,
+                    noise_rms=args.noise_rms)
     except ValueError as error:       # the config holds no cosimulation (e.g. a PRI of no whole samples)
         print(f"rast cosim: {Path(config).name}: {error}", file=sys.stderr)
         return 2
@@ -136,18 +140,20 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     c = e.scenario.contract
     print(f"rast cosim: {Path(config).name}: {e.pulse.n_pulses} pulses, {e.info['samples']:,} RTS samples "
-          f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s), pool words {c.pool_words}, "
+          f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s) in {c.pipelines} pipeline(s) of "
+          f"{c.slots} slot(s), pool words {c.pool_words}, "
           f"latency {c.latency}; simulator {args.simulator}"
           f"{', synthesised netlist (synth_ecp5) with ECP5 cell models' if args.netlist else ''}", flush=True)
     make_sources = replay_netlist_sources if args.netlist else top_sources
-    sources, top = make_sources(c.channels, pool_words=c.pool_words, max_delay=c.max_delay,
-                                interpolation=c.interpolation,
+    sources, top = make_sources(c.channels, slots=c.slots, pool_words=c.pool_words,
+                                max_delay=c.max_delay, interpolation=c.interpolation,
                                 max_tap=c.max_tap)
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
-                     label=f"cosim{c.channels}{'-netlist' if args.netlist else ''}", bulk=True)
+                     label=f"cosim{c.channels}m{c.slots}{'-netlist' if args.netlist else ''}", bulk=True)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
-    params = dict(config=config, seconds=args.seconds, channels=args.channels, overlap=args.overlap,
+    params = dict(config=config, seconds=args.seconds, channels=args.channels, slots=args.slots,
+                  overlap=args.overlap,
                   noise_rms=args.noise_rms,
                   require_peaks=bool(args.check_doppler))
     failure = None

@@ -37,7 +37,8 @@ def read_contract(bridge: HostBridge) -> ReplayContract:
     if ident != ID_VALUE:
         raise LoadError(f"Register ID reads {ident:#010x}, not {ID_VALUE:#010x}: not a RAST bitstream")
     cfg = bridge.read(a("CONFIG"))
-    c = ReplayContract(channels=cfg & 0xFF, pool_words=bridge.read(a("POOL_WORDS")),
+    c = ReplayContract(channels=cfg & 0xFF, slots=max(1, cfg >> 16 & 0x7F),
+                       pool_words=bridge.read(a("POOL_WORDS")),
                        max_delay=bridge.read(a("MAX_DELAY")),
                        max_tap=bridge.read(a("MAX_TAP")),
                        interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],

@@ -6,16 +6,24 @@ __all__ = ["REPLAY_OPTIONS", "add_replay_arguments", "replay_kwargs"]
 
 #: The :class:`rast.model.fixedpoint.ReplayContract` parameters the options set (but ``channels``).
 REPLAY_OPTIONS = ("pool_words", "max_delay", "max_tap", "interpolation", "cmult_form")
+#: ``slots`` too, where the command takes it directly (not from clocks).
 
 
-def add_replay_arguments(parser, *, channels: int) -> None:
-    """Add ``--channels`` (default ``channels``), ``--pool-words``, ``--max-delay``,
-    ``--max-tap``, ``--interpolation`` and ``--cmult-form`` to ``parser`` (a
-    parser or an argument group); the defaults are :class:`ReplayContract`'s."""
+def add_replay_arguments(parser, *, channels: int, defaults=None, slots: bool = True) -> None:
+    """Add ``--channels`` (default ``channels``), ``--slots`` (unless
+    ``slots`` is false: the command derives it from its clocks),
+    ``--pool-words``, ``--max-delay``, ``--max-tap``, ``--interpolation`` and
+    ``--cmult-form`` to ``parser`` (a parser or an argument group); the
+    defaults are ``defaults``' (any object with those attributes) or
+    :class:`ReplayContract`'s."""
     from rast.model.fixedpoint import ReplayContract
-    d = ReplayContract()
+    d = defaults or ReplayContract()
     parser.add_argument("--channels", type=int, default=channels,
                         help=f"windmill channels N (default {channels})")
+    if slots:
+        parser.add_argument("--slots", type=int, default=1,
+                            help="fabric clocks per sample M: each pipeline serves M channels, one per "
+                                 "clock (default 1)")
     parser.add_argument("--pool-words", type=int, default=d.pool_words,
                         help=f"words of the stream pool shared by all channels (default {d.pool_words})")
     parser.add_argument("--max-delay", type=int, default=d.max_delay,
@@ -30,5 +38,9 @@ def add_replay_arguments(parser, *, channels: int) -> None:
 
 
 def replay_kwargs(args) -> dict:
-    """The replay block's parameters from parsed options, ``channels`` left out."""
-    return {name: getattr(args, name) for name in REPLAY_OPTIONS}
+    """The replay block's parameters from parsed options, ``channels`` left out
+    (``slots`` in, where the command has the option)."""
+    out = {name: getattr(args, name) for name in REPLAY_OPTIONS}
+    if hasattr(args, "slots"):
+        out["slots"] = args.slots
+    return out

@@ -9,7 +9,8 @@ and talks to Python through files in the simulator's working directory:
 ``cfg.hex``   scalar settings, one 64-bit hex word per line (see :data:`CFG_FIELDS`)
 ``src.hex``   input words (I low), read in order and wrapped modulo ``n_src``
 ``regs.hex``  register script: ``{at_sample[63:0], addr[31:0], data[31:0]}`` per line,
-              applied (one write per clock) before input sample ``at_sample`` is offered
+              applied (one write per clock the DUT takes it, ``bus_ready``) before input
+              sample ``at_sample`` is offered
 ``out.txt``   captured outputs, ``<cycle> <sample index> <payload>`` in hex per line
 ``summary.txt`` counts and position-weighted checksums of *every* output sample
 
@@ -85,6 +86,8 @@ class PortMap:
     bus_w_data: str | None = None
     bus_w_data_width: int = 32
     bus_w_stb: str | None = None
+    #: the DUT's bus ready (a write is taken in a cycle with it high); None: always
+    bus_ready: str | None = None
     #: other DUT inputs tied to constants: name -> (width, value)
     tie: dict = field(default_factory=dict)
     #: DUT outputs brought out to the wrapper's ports (name -> width)
@@ -123,6 +126,8 @@ def bulk_verilog(p: PortMap, *, src_aw: int = 22, reg_aw: int = 18) -> str:
         conns += [f".{p.bus_addr}(bus_addr[{p.bus_addr_width - 1}:0])",
                   f".{p.bus_w_data}(bus_data[{p.bus_w_data_width - 1}:0])",
                   f".{p.bus_w_stb}(bus_we)"]
+    if p.bus_ready:
+        conns.append(f".{p.bus_ready}(bus_ready)")
     for name, (w, v) in p.tie.items():
         conns.append(f".{name}({w}'d{v})")
     for n in p.observe:
@@ -136,6 +141,7 @@ def bulk_verilog(p: PortMap, *, src_aw: int = 22, reg_aw: int = 18) -> str:
                           for n, w in p.observe.items()),
         obs_summary="".join(f'                $fwrite(fd_sum, "obs_{n} %0d\\n", obs_{n});\n'
                             for n in p.observe),
+        bus_ready_default="" if p.bus_ready else "    assign bus_ready = 1'b1;\n",
         in_width=p.in_width, out_width=p.out_width, src_aw=src_aw, reg_aw=reg_aw,
         n_cfg=len(CFG_FIELDS), max_cap=MAX_CAP, cap_base=n_fixed, clock_half_ns=CLOCK_PERIOD_NS // 2)
     text = _template()

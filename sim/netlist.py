@@ -155,7 +155,8 @@ def synthesize(design, name: str, platform) -> str:
 
 
 def replay_netlist_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
-                           interpolation: str = "fir", cmult_form: str = "4mult", src_aw: int = 22,
+                           slots: int = 1, interpolation: str = "fir", cmult_form: str = "4mult",
+                           src_aw: int = 22,
                            board: str = "ulx3s-85f", netlist_edit=None):
     """``({file: text}, toplevel)``: the replay top's netlist inside ``rast_bulk``, with the cell library.
 
@@ -170,7 +171,7 @@ def replay_netlist_sources(channels: int, *, pool_words: int, max_delay: int, ma
     from rast.model.regmap import register_map
     from .bulk import bulk_verilog
     from .top import TOP_MODULE, port_map
-    kwargs = dict(pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
+    kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
                   interpolation=interpolation, cmult_form=cmult_form)
     top = WindFarmReplay(channels, **kwargs)
     netlist = synthesize(top, TOP_MODULE, make_platform(board))

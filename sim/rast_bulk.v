@@ -84,6 +84,8 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
     wire in_valid = running && !in_done && !reg_here && (gap_left == 64'd0);
     wire [IN_W-1:0] in_payload = (pulse != pulses && pos < active) ? src[src_ptr[SRC_AW-1:0]] : {IN_W{1'b0}};
     wire bus_we = running && reg_here && drained;
+    wire bus_ready;         // the DUT takes the write in a cycle with it high
+${bus_ready_default}
     wire [31:0] bus_addr = rcur[63:32];
     wire [31:0] bus_data = rcur[31:0];
 
@@ -147,7 +149,7 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
             end
         end else if (running) begin
             cycles <= cycles + 64'd1;
-            if (bus_we) rptr <= rptr + 64'd1;
+            if (bus_we && bus_ready) rptr <= rptr + 64'd1;
             if (in_valid && in_ready) begin
                 in_idx <= in_idx + 64'd1;
                 if (pulse == pulses) begin

@@ -270,7 +270,7 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
                   flush=c.latency + c.max_delay + c.max_tap + 8,
                   regs=regs, gap_thresh=gap_thresh, gap_max=5, stall_thresh=stall_thresh,
                   seed=seed + 1)
-    return Scenario(f"{kind}-{channels}ch-seed{seed}", c, job, 20e6)
+    return Scenario(f"{kind}-{channels}ch-m{c.slots}-seed{seed}", c, job, 20e6)
 
 
 def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int = 32,
@@ -331,4 +331,4 @@ def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int
     job = BulkJob(src=train.words(), active=active, pri=pri, pulses=pulses,
                   flush=c.latency + c.max_delay + c.max_tap + 8, regs=regs,
                   gap_thresh=gap_thresh, gap_max=3, stall_thresh=stall_thresh, seed=seed + 7)
-    return Scenario(f"farm-{channels}ch-seed{seed}", c, job, fs_mhz * 1e6)
+    return Scenario(f"farm-{channels}ch-m{c.slots}-seed{seed}", c, job, fs_mhz * 1e6)

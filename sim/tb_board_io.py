@@ -2,21 +2,24 @@
 
 Run from ``tests/test_cosim_board_io.py``; parameters arrive as JSON in
 ``RAST_TB_PARAMS``, results go to ``board_io.json`` in the run directory and
-the pytest side checks them. The testbench makes the sample clock itself in
-quarter periods, so every pin changes half way between clock edges:
+the pytest side checks them. The testbench makes the fabric clock itself in
+quarter periods and plays the converters from the pins, as real ones would
+see them: the forwarded ``adc_clk`` (the same pattern as ``dac_clk``) is
+high for the first half of each sample, ``slots`` half fabric clocks, low
+for the second; pin sample k begins at its k-th rising edge.
 
-* ADC pins: the I half of sample k is set a quarter period before rising
-  edge k, the Q half a quarter period before the falling edge after it (the
-  ``IDDRX1F`` takes I on rising edge k, Q on the falling edge: ADC pin sample k);
-* DAC pins: read a quarter period after rising edge m (the I half, ``dac_iq``
-  high) and a quarter period after the falling edge (the Q half, ``dac_iq``
-  low): DAC pin sample m;
+* ADC pins: centre-aligned with ``adc_clk``: the I half of sample k is set
+  in the middle of the low phase before its rising edge, the Q half in the
+  middle of its high phase (the ``IDDRX1F`` takes I on the rising edge, Q on
+  the falling edge);
+* DAC pins: read in the middle of each phase of ``dac_clk``: the I half
+  (``dac_iq`` high) in the high phase, the Q half in the low phase;
 * UART ``rx``: 8N1 frames of :mod:`rast.model.hostproto`, bits of ``divisor``
-  clocks changing at falling edges; ``tx`` is read at every falling edge and
-  decoded after the run.
+  fabric clocks changing at falling edges; ``tx`` is read at every falling
+  edge and decoded after the run.
 
 ``steps``: per step, the register writes (sent as the host sends them), the
-clocks to wait after the last acknowledgement, the impulse (I, Q) and the
+samples to wait after the last acknowledgement, the impulse (I, Q) and the
 number of DAC samples to record from the impulse's sample on.
 """
 
@@ -65,39 +68,67 @@ def _signed16(v: int) -> int:
 
 
 class _Bench:
-    def __init__(self, dut, divisor: int):
-        self.dut, self.divisor = dut, divisor
-        self.cycle = 0
-        self.adc = [(0, 0)]      # (I, Q) per cycle on the ADC pins; index = cycle
-        self.rx = []             # line level per cycle
+    def __init__(self, dut, divisor: int, slots: int):
+        self.dut, self.divisor, self.slots = dut, divisor, slots
+        self.cycle = 0           # fabric clocks
+        self.sample = -1         # pin samples: rising edges of adc_clk seen
+        self.adc = {}            # (I, Q) per pin sample
+        self.rx = []             # line level per fabric clock
         self.tx = []
-        self.dac = []            # (I, Q, iq during I, iq during Q) per cycle
-        self.clocks = []         # (adc_clk, dac_clk) high and low halves, a few cycles
+        self.dac = {}            # pin sample -> [I, Q, iq during I, iq during Q]
+        self.pattern = []        # (adc_clk, dac_clk, dac_iq) per half clock, a few periods
+        self._level = 0          # adc_clk's level in the last half clock
+        self._half = 0           # half clocks since its last change
+        self._mid = (slots - 1) // 2    # the half clock in the middle of a phase
 
     def _adc(self, k):
-        return self.adc[k] if k < len(self.adc) else (0, 0)
+        return self.adc.get(k, (0, 0))
+
+    def _half_clock(self):
+        """In the middle of a half fabric clock: follow the pins' clock, play
+        the ADC's next half, read the DAC's."""
+        d = self.dut
+        level = int(d.adc_clk.value)
+        if level != self._level:
+            self._level, self._half = level, 0
+            if level:
+                self.sample += 1
+        else:
+            self._half += 1
+        if self.cycle >= 64 and len(self.pattern) < 8 * self.slots:
+            self.pattern.append((level, int(d.dac_clk.value), int(d.dac_iq.value)))
+        if self._half == self._mid and self.sample >= 0:
+            k = self.sample
+            rec = self.dac.setdefault(k, [0, 0, 0, 0])
+            if level:          # high phase: DAC's I half; the ADC's Q half of sample k
+                rec[0], rec[2] = _signed16(int(d.dac_data.value)), int(d.dac_iq.value)
+                d.adc_data.value = self._adc(k)[1] & 0xFFFF
+            else:              # low phase: DAC's Q half; the ADC's I half of sample k + 1
+                rec[1], rec[3] = _signed16(int(d.dac_data.value)), int(d.dac_iq.value)
+                d.adc_data.value = self._adc(k + 1)[0] & 0xFFFF
 
     async def clock(self, n: int = 1):
-        """``n`` sample clocks: rising edge, Q half, falling edge, next I half."""
+        """``n`` fabric clocks: rising edge, middle, falling edge, middle."""
         d = self.dut
         for _ in range(n):
             k = self.cycle
             d.clk.value = 1
             await Timer(QUARTER_NS, "ns")
-            d.adc_data.value = self._adc(k)[1] & 0xFFFF
-            hi = (int(d.dac_data.value), int(d.dac_iq.value), int(d.adc_clk.value), int(d.dac_clk.value))
+            self._half_clock()
             await Timer(QUARTER_NS, "ns")
             d.clk.value = 0
             d.rx.value = self.rx[k] if k < len(self.rx) else 1
             await Timer(QUARTER_NS, "ns")
-            d.adc_data.value = self._adc(k + 1)[0] & 0xFFFF
-            lo = (int(d.dac_data.value), int(d.dac_iq.value), int(d.adc_clk.value), int(d.dac_clk.value))
+            self._half_clock()
             self.tx.append(int(d.tx.value))
-            self.dac.append((_signed16(hi[0]), _signed16(lo[0]), hi[1], lo[1]))
-            if len(self.clocks) < 64:
-                self.clocks.append((hi[2], lo[2], hi[3], lo[3]))
             await Timer(QUARTER_NS, "ns")
             self.cycle += 1
+
+    async def samples(self, n: int):
+        """Until ``n`` more pin samples have begun."""
+        end = self.sample + n
+        while self.sample < end:
+            await self.clock()
 
     def acks(self, start: int = 0) -> int:
         return sum(1 for b in _uart_decode(self.tx[start:], self.divisor) if b == ACK)
@@ -106,7 +137,7 @@ class _Bench:
 @cocotb.test()
 async def board_io(dut):
     p = params()
-    bench = _Bench(dut, p["divisor"])
+    bench = _Bench(dut, p["divisor"], p["slots"])
     dut.clk.value = 0
     dut.rst.value = 1
     dut.rx.value = 1
@@ -129,17 +160,16 @@ async def board_io(dut):
                 raise AssertionError(f"{got} of {len(frames)} acknowledgements by cycle "
                                      f"{bench.cycle}: the bridge did not take the writes")
             await bench.clock(8 * bench.divisor)
-        await bench.clock(step["settle"])
-        t0 = bench.cycle + 2
-        bench.adc += [(0, 0)] * (t0 - len(bench.adc))
-        bench.adc.append(tuple(step["impulse"]))
-        await bench.clock(t0 + step["window"] - bench.cycle)
-        rec = bench.dac[t0:t0 + step["window"]]
-        results.append({"impulse_cycle": t0,
+        await bench.samples(step["settle"])
+        t0 = bench.sample + 2
+        bench.adc[t0] = tuple(step["impulse"])
+        await bench.samples(t0 + step["window"] + 1 - bench.sample)
+        rec = [bench.dac.get(t0 + m, [0, 0, 0, 0]) for m in range(step["window"])]
+        results.append({"impulse_sample": t0,
                         "nonzero": [[m, i, q] for m, (i, q, _, _) in enumerate(rec) if i or q],
                         "iq_marker": sorted({(a, b) for _, _, a, b in rec})})
     replies = _uart_decode(bench.tx, bench.divisor)
     report = {"steps": results, "acks": replies.count(ACK), "replies": len(replies),
-              "frames": frames_sent,
-              "overflow": int(dut.overflow.value), "clocks": sorted(set(bench.clocks[16:]))}
+              "frames": frames_sent, "overflow": int(dut.overflow.value),
+              "pattern": bench.pattern}
     (run_dir() / "board_io.json").write_text(json.dumps(report))

@@ -29,7 +29,8 @@ async def e2e(dut):
     p = params()
     d = run_dir()
     t0 = time.monotonic()
-    e = prepare(p["config"], p["seconds"], channels=p.get("channels"), noise_rms=p.get("noise_rms", 0.0))
+    e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1),
+                noise_rms=p.get("noise_rms", 0.0))
     t_prep = time.monotonic() - t0
     cocotb.log.info("e2e %s: %s", e.scenario.name, e.info)
     beside = ModelBeside(e.scenario, d)          # the model on the other core, during the RTL run
@@ -90,6 +91,6 @@ async def e2e(dut):
 async def bench(dut):
     """Only the RTL run of the e2e job (no model): the benchmark's cosim figure."""
     p = params()
-    e = prepare(p["config"], p["seconds"], channels=p.get("channels"))
+    e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1))
     summary = await BulkBench(dut).run(e.scenario.job, progress=True)
     save_json(run_dir() / "bench.json", dict(summary, info=e.info))

@@ -20,18 +20,18 @@ def port_map(addr_width: int) -> PortMap:
                    in_ready="i__ready", in_width=32, out_payload="o__payload",
                    out_valid="o__valid", out_ready="o__ready", out_width=32,
                    bus_addr="bus__addr", bus_addr_width=addr_width, bus_w_data="bus__w_data",
-                   bus_w_stb="bus__w_stb", tie={"bus__r_stb": (1, 0)},
-                   observe={"overflow": 1}, open_outputs=("bus__r_data",))
+                   bus_w_stb="bus__w_stb", bus_ready="bus__ready", tie={"bus__r_stb": (1, 0)},
+                   observe={"overflow": 1}, open_outputs=("bus__r_data", "bus__r_valid", "slot"))
 
 
 @lru_cache(maxsize=None)
-def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
+def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int, slots: int = 1,
                 interpolation: str = "fir", cmult_form: str = "4mult", src_aw: int = 22):
     """``({file: text}, toplevel)`` of the replay top inside ``rast_bulk``."""
     from rast.gateware.verilog import verilog_text
     from rast.model.fixedpoint import ReplayContract
     from rast.model.regmap import register_map
-    kwargs = dict(pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
+    kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
                   interpolation=interpolation, cmult_form=cmult_form)
     text = _cached_verilog(channels, kwargs, lambda: verilog_text(channels, name=TOP_MODULE, **kwargs))
     aw = register_map(ReplayContract(channels=channels, **kwargs)).addr_width

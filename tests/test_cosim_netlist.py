@@ -2,10 +2,10 @@
 same bulk testbench and scoreboard as the behavioural top (every output sample compared with the
 bit-exact model as integers); and a wrong primitive setting in a copy of the netlist must fail.
 
-The replay top at the default build's stream depth, delays and interpolation (so the block RAMs
-are in the build's x2/x4 width-sliced modes and the FIR ROM in x18), with one channel: the
-netlist of the whole 8-channel build is the same cells eight times, and its simulation would take
-most of CI's two cores.
+The replay top at the default build's stream depth, delays, interpolation and slots (so the
+block RAMs are in the build's width-sliced modes and one pipeline of 10 slots is time-multiplexed
+as in the build), with two channels: the netlist of the whole 64-channel build is the same
+pipeline seven times, and its simulation would take most of CI's two cores.
 """
 
 import pytest
@@ -17,10 +17,11 @@ from rast.sim.pytest_support import cocotb_run
 
 MODULE = "rast.sim.tb_top"
 _D = BuildConfig()
-DEFAULT_CONTRACT = dict(pool_words=_D.pool_words, max_delay=_D.max_delay, max_tap=_D.max_tap)
+DEFAULT_CONTRACT = dict(pool_words=_D.pool_words, max_delay=_D.max_delay, max_tap=_D.max_tap,
+                        slots=_D.slots)
 
 
-def _run(kind, seed, *, channels=1, netlist_edit=None, name=""):
+def _run(kind, seed, *, channels=2, netlist_edit=None, name=""):
     sources, top = replay_netlist_sources(channels, interpolation=_D.interpolation, cmult_form=_D.cmult_form,
                                           netlist_edit=netlist_edit, **DEFAULT_CONTRACT)
     cocotb_run(sources, top, MODULE, "replay_bulk", simulator="verilator", bulk=True,

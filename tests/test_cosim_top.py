@@ -1,8 +1,12 @@
-"""Cosimulation of the wind-farm top (1, 4 and 8 channels) against the bit-exact model.
+"""Cosimulation of the wind-farm top against the bit-exact model: 1, 4 and 8
+channels one per pipeline (M = 1), 1, M and M + 1 channels time-multiplexed
+(M = 4), and 66 channels in 7 pipelines of 10 slots.
 
-Random farms from the golden model, random register sequences with stream
-reloads mid-run, full-scale stimulus driving saturation; valid gaps and
-ready stalls of random length. Every output sample is compared as an integer.
+Random farms from the golden model (several channels on one tap), random
+register sequences with stream reloads of random lengths mid-run into the
+free parts of the pool, forced switches, full-scale stimulus driving
+saturation; valid gaps and ready stalls of random length. Every output
+sample is compared as an integer.
 """
 
 import pytest
@@ -17,14 +21,15 @@ MODULE = "rast.sim.tb_top"
 STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 
 
-def _run(simulator, channels, kind, seed, stalls, interpolation="fir"):
-    sources, top = top_sources(channels, interpolation=interpolation, **TEST_CONTRACT)
+def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=40):
+    sources, top = top_sources(channels, slots=slots, interpolation=interpolation, **TEST_CONTRACT)
     g, s = STALLS[stalls]
     cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator, bulk=True,
-               label=f"top{channels}{interpolation}",
-               name=f"{kind}-{channels}ch-{stalls}-s{seed}",
+               label=f"top{channels}m{slots}{interpolation}",
+               name=f"{kind}-{channels}ch-m{slots}-{stalls}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=g,
-                              stall_thresh=s, interpolation=interpolation))
+                              stall_thresh=s, interpolation=interpolation, pulses=pulses,
+                              contract=dict(TEST_CONTRACT, slots=slots)))
 
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
@@ -38,6 +43,27 @@ def _run(simulator, channels, kind, seed, stalls, interpolation="fir"):
 ])
 def test_top(simulator, channels, kind, stalls, seed):
     _run(simulator, channels, kind, seed + 10 * channels, stalls)
+
+
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
+@pytest.mark.parametrize("channels", [1, 4, 5])
+@pytest.mark.parametrize("kind, stalls, seed", [
+    ("random", "gaps", 31),
+    ("farm", "heavy", 32),
+    ("saturate", "gaps", 33),
+])
+def test_top_time_multiplexed(simulator, channels, kind, stalls, seed):
+    """M = 4: one pipeline part full (1), full (4), and a second pipeline (5)."""
+    _run(simulator, channels, kind, seed + 10 * channels, stalls, slots=4)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
+@pytest.mark.parametrize("kind, seed", [("random", 41), ("farm", 42)])
+def test_top_66_channels(simulator, kind, seed):
+    """66 channels, 7 pipelines of 10 slots (the last with 6): the default
+    build's shape with more channels than it has."""
+    _run(simulator, 66, kind, seed, "gaps", slots=10, pulses=12)
 
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)

@@ -56,10 +56,12 @@ def test_elaborates_for_ecp5(tmp_path, board, device):
     lpf = (tmp_path / "rast_top.lpf").read_text()
     assert il.count("cell \\IDDRX1F") == 16 and il.count("cell \\ODDRX1F") == 16 + 3
     assert "cell \\EHXPLLL" in il
-    # 4 complex + 2 gain + the FIR's 2 MAC and 2 linear-step multipliers per channel
-    assert il.count("cell \\MULT18X18D") == 2 * 10
+    # one pipeline of 10 slots serves both channels: 4 complex + 2 gain + the
+    # FIR's 2 MAC and 2 linear-step multipliers
+    assert il.count("cell \\MULT18X18D") == 10
     assert 'LOCATE COMP "rts_adc_0__data__io[0]" SITE "B11"' in lpf
-    assert rep["pll"]["f_out_mhz"] == 20.0 and rep["build"]["sample_rate_hz"] == 20_000_000
+    assert rep["pll"]["f_out_mhz"] == 200.0 and rep["build"]["sample_rate_hz"] == 20_000_000
+    assert rep["build"]["slots"] == 10 and rep["config"]["pipelines"] == 1
     assert rep["memory"]["pool_words"] == 256
 
 

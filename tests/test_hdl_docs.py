@@ -23,8 +23,10 @@ def test_fixed_point_worked_example():
     assert q.tolist() == [6638, 458]
     y, over = saturate(5 * q)
     assert y.tolist() == [32767, 2290] and over.tolist() == [True, False]
-    # two delay lines 3 + 3, cmult 3, gain 2, adder tree max(1, ceil(log2 N))
-    assert [ReplayContract(channels=n).latency for n in (1, 2, 4, 8, 16, 64)] == [12, 12, 13, 14, 15, 17]
+    # in samples the two delay lines' lags, whatever N and M
+    assert {ReplayContract(channels=n, slots=m).latency for n in (1, 8, 64) for m in (1, 2, 10)} == {2}
+    # in clocks: the last slot, visit, word, cmult, gain, slot sum, tree, saturation
+    assert ReplayContract(channels=64, slots=10).output_cycles == 29
     text = (DOCS / "fixed_point.md").read_text()
-    for s in ("8850", "6638", "458", "26552", "32767", "N = 1 or 2 → 12, 4 → 13, 8 → 14, 16 → 15, 64 → 17"):
+    for s in ("8850", "6638", "458", "26552", "32767", "L = 2", "M = 10 (P = 7): 29 clocks"):
         assert s in text

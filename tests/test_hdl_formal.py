@@ -10,10 +10,12 @@ from replay_formal import run_check   # noqa: E402
 
 
 @pytest.mark.parametrize("name", [
-    "stream_address",          # k-induction: index < active length <= pool, fetches inside the stream
+    "stream_address",          # k-induction, every ring position: index <= length - 1 < pool, fetches inside the stream
+    "stream_address_m1",       # one slot: the update in one stage
+    "stream_address_m3",       # three slots: a plain register in the ring
     "stream_address_interp",
     "stream_address_fir",
-    "delay_exact",             # BMC: output == input of 3 + d enabled samples earlier
+    "delay_exact",             # BMC: a read for step n at delay d returns the word of step n - lag - d
     pytest.param("delay_exact_deep", marks=pytest.mark.slow),
 ])
 def test_formal(name, tmp_path):

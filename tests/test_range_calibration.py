@@ -6,8 +6,7 @@ The pin-to-pin measurement is ``tests/test_cosim_board_io.py``."""
 import pytest
 
 from rast.model.config import ConfigError, parse_config
-from rast.model.fixedpoint import (BOARD_INPUT_LATENCY, BOARD_LATENCY, BOARD_OUTPUT_LATENCY,
-                                   ReplayContract, path_latency)
+from rast.model.fixedpoint import ReplayContract, path_latency
 from rast.model.regmap import register_map
 from rast.model.loadplan import manifest_channel_inits, manifest_to_register_writes
 from rast.model.stream import build_farm_streams
@@ -55,9 +54,7 @@ def test_flat_file_takes_the_keys():
 
 def test_manifest_states_the_calibration():
     m = build_farm_streams(parse_config(farm(adc_latency=9, dac_latency=4))).manifest()
-    assert m["calibration"] == {"adc_latency_samples": 9, "dac_latency_samples": 4,
-                                "board_input_latency_samples": BOARD_INPUT_LATENCY,
-                                "board_output_latency_samples": BOARD_OUTPUT_LATENCY}
+    assert m["calibration"] == {"adc_latency_samples": 9, "dac_latency_samples": 4}
 
 
 def _delay0(writes, contract):
@@ -66,20 +63,21 @@ def _delay0(writes, contract):
     return w[a("COMMON_DELAY")] + w[a("DELAY", 0)]
 
 
-def test_board_target_subtracts_board_and_converters():
+@pytest.mark.parametrize("slots", [1, 10])
+def test_board_target_subtracts_board_and_converters(slots):
     fs = build_farm_streams(parse_config(farm(adc_latency=9, dac_latency=4)))
     m = fs.manifest()
-    c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_tap=62,
+    c = ReplayContract(channels=2, slots=slots, pool_words=1 << 15, max_delay=1022, max_tap=62,
                        interpolation="hold", sample_rate_hz=20_000_000)
     d = fs.streams[0].delay_samples                       # 267 samples at 2 km, 20 MHz
-    assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - 7 - 13
+    assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.board_latency - 13
     assert _delay0(manifest_to_register_writes(m, c, target="block"), c) == d - c.latency
     assert _delay0(manifest_to_register_writes(m, c), c) == d - c.latency          # default: block
     # the taps of the further channels are not touched: the common delay takes the fixed part
     tap = dict(manifest_to_register_writes(m, c, target="board"))[register_map(c).addr("DELAY", 1)]
     assert tap == fs.streams[1].delay_samples - d
     inits, common = manifest_channel_inits(m, c, streams=[s.words for s in fs.streams], target="board")
-    assert common == d - c.latency - BOARD_LATENCY - 13 and inits[0].delay == 0 and inits[1].delay == tap
+    assert common == d - c.board_latency - 13 and inits[0].delay == 0 and inits[1].delay == tap
 
 
 def test_manifest_without_calibration_loads_as_zero_converters():
@@ -89,7 +87,7 @@ def test_manifest_without_calibration_loads_as_zero_converters():
     c = ReplayContract(channels=2, pool_words=1 << 15, max_delay=1022, max_tap=62,
                        interpolation="hold")
     d = fs.streams[0].delay_samples
-    assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.latency - BOARD_LATENCY
+    assert _delay0(manifest_to_register_writes(m, c, target="board"), c) == d - c.board_latency
 
 
 @pytest.mark.parametrize("cal, message", [
@@ -115,9 +113,15 @@ def test_unknown_target_is_refused():
 
 
 def test_contract_states_the_board_latency():
+    # M = 1: ADC pins to the block 6 clocks (the pin clock's edge PIN_LAG 4 after
+    # its slot, the IDDRX1F and the sample register 2); the block L 2; its 19
+    # clocks to the saturation register (4 pipelines), the FIFO and the DAC register 2
     c = ReplayContract(channels=4)
-    assert c.board_latency == c.latency + 7 == 13 + 7
-    assert c.to_dict()["board_latency_samples"] == 20
+    assert c.output_cycles == 19 and c.board_latency == 6 + 2 + 21
+    # M = 10: the same clocks, in whole periods: ceil(11 / 10) + 2 + ceil(31 / 10)
+    c10 = ReplayContract(channels=64, slots=10)
+    assert c10.board_latency == 2 + 2 + 4
+    assert c.to_dict()["board_latency_samples"] == 29
     assert ReplayContract.from_dict(c.to_dict()) == c
-    assert path_latency(c.latency, "block", 5, 5) == c.latency
-    assert path_latency(c.latency, "board", 2, 3) == c.latency + 7 + 5
+    assert path_latency(c, "block", 5, 5) == c.latency
+    assert path_latency(c, "board", 2, 3) == c.board_latency + 5

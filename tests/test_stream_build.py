@@ -33,22 +33,22 @@ def _readme_config(tmp_path):
 def test_readme_configuration_example_runs_and_fits_the_default_build(tmp_path, capsys):
     config = _readme_config(tmp_path)
     default = BuildConfig()
-    report = _report(tmp_path, channels=default.channels, pool_words=default.pool_words,
-                     interpolation=default.interpolation,
-                     sample_rate_hz=round(default.clock_mhz * 1e6))
+    report = _report(tmp_path, channels=default.channels, slots=default.slots,
+                     pool_words=default.pool_words, interpolation=default.interpolation,
+                     sample_rate_hz=round(default.sample_rate_mhz * 1e6))
     out = tmp_path / "out"
     assert main(["stream", str(config), "--out", str(out), "--build", str(report)]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     (w,) = manifest["windmills"]
     assert w["length"] == 3589 <= default.pool_words
     assert manifest["build"]["pool_words"] == default.pool_words
-    assert manifest["sample_rate_hz"] == default.clock_mhz * 1e6
+    assert manifest["sample_rate_hz"] == default.sample_rate_mhz * 1e6
     assert "needs a build with at least 1 channel(s), a stream pool of 4096 words" in capsys.readouterr().out
 
 
 def test_default_bitstream_runs_at_the_examples_sample_rate():
     rates = {load_config(p).sample_rate_mhz for p in (ROOT / "examples").glob("*.toml")}
-    assert rates == {BuildConfig().clock_mhz}
+    assert rates == {BuildConfig().sample_rate_mhz}
 
 
 def test_stream_for_a_build_of_another_sample_rate_is_refused(tmp_path, capsys):
@@ -98,9 +98,11 @@ def test_bad_build_reports_are_refused(tmp_path, capsys, content, message):
 
 
 def test_contract_description_round_trips():
-    c = ReplayContract(channels=3, pool_words=64, max_delay=10, max_tap=4,
+    c = ReplayContract(channels=7, slots=2, pool_words=64, max_delay=10, max_tap=4,
                        interpolation="linear", cmult_form="3mult", sample_rate_hz=12_345_678)
     d = c.to_dict()
     assert ReplayContract.from_dict(json.loads(json.dumps(d))) == c
-    # linear: at most one word per N = 3 samples (what the fetch scan supplies)
-    assert d["latency_samples"] == 6 + 4 + 2 + 2 and d["max_phase_increment"] == (2**32 - 1) // 3
+    # linear: at most one word per P = 4 samples (each pipeline's slots are offered a
+    # fetch every 4th period); the fabric runs at 2 x the sample rate
+    assert d["pipelines"] == 4 and d["max_phase_increment"] == (2**32 - 1) // 4
+    assert d["latency_samples"] == 2 and d["clock_hz"] == 24_691_356

@@ -1,16 +1,21 @@
 """Formal harnesses for the replay block (run by tests/test_hdl_formal.py, or
 ``python tests/formal/replay_formal.py OUTDIR`` to leave the .sby/.il files).
 
-* ``StreamAddressCheck``: k-induction proof that the stream's read index
-  never leaves the programmed length (``index < active_length <= pool``) and
-  that every fetch from the pool asks for a word of the channel's own stream
-  (``fetch_addr - active_base < active_length``, modulo the address width),
-  under arbitrary enables, register values, switch requests, fetch grants and
-  pool answers.
-* ``DelayExactCheck``: the delay line's output is exactly the input of
-  ``3 + d`` enabled samples earlier (``d`` arbitrary per sample, read 3 samples
-  before), against a shift-register reference, from the first sample on;
-  bounded model check from reset over several wraps of the RAM pointer.
+* ``StreamAddressCheck``: k-induction proof, on one
+  :class:`~rast.hdl.channel_pipeline.ChannelPipeline` of M slots, that in
+  every position of its state ring (the slot at the head, the one in the
+  update's second stage, the ones going round) the read index never leaves
+  the active length (``idx <= len_m1 < pool``, the registered wrap flag
+  agreeing) and every fetch asks for a word of the slot's own stream (the
+  fetch index below the length, ``f_addr - base`` equal to it modulo the
+  address width), under arbitrary input steps, register values and
+  commands, fetch offers and pool answers.
+* ``DelayExactCheck``: the step-indexed delay line returns, ``latency``
+  clocks after a read for step n at delay d, exactly the word written for
+  step ``n - lag - d``, whatever the pattern of writes and reads (reads for
+  the step being written and for the one before, as the common line and the
+  windows read), against a shift-register reference; bounded model check
+  from reset over several wraps of the RAM.
 """
 
 import os
@@ -21,79 +26,107 @@ from pathlib import Path
 
 from amaranth.asserts import AnySeq
 from amaranth.back import rtlil
-from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal
+from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal, Mux
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from rast.hdl.delay_line import DelayLine          # noqa: E402
-from rast.hdl.stream_replay import StreamReplay    # noqa: E402
+from rast.hdl.channel_pipeline import ChannelPipeline, SlotInit   # noqa: E402
+from rast.hdl.delay_line import DelayLine                         # noqa: E402
+from rast.hdl.registers import channel_regs_layout               # noqa: E402
+from rast.model.fixedpoint import ReplayContract                  # noqa: E402
+from rast.model.regmap import register_map                        # noqa: E402
 
 
 class StreamAddressCheck(Elaboratable):
-    def __init__(self, depth=16, interpolation="hold"):
-        self.depth = depth
-        self.interpolation = interpolation
+    def __init__(self, slots=2, channels=2, pool_words=16, interpolation="hold"):
+        self.c = ReplayContract(channels=channels, slots=slots, pool_words=pool_words,
+                                max_delay=2, max_tap=2, interpolation=interpolation)
 
     def elaborate(self, platform):
         m = Module()
-        D = self.depth
-        m.submodules.dut = dut = StreamReplay(D, interpolation=self.interpolation, init_base=5,
-                                              init_length=9, init_increment=1 << 22)
-        length = AnySeq(range(D + 1))
-        m.d.comb += [Assume(length >= 1), Assume(length <= D), Assume(~ResetSignal())]
-        m.d.comb += [dut.en.eq(AnySeq(1)), dut.length.eq(length), dut.base.eq(AnySeq(dut.base.shape())),
-                     dut.increment.eq(AnySeq(32)), dut.swap_req.eq(AnySeq(1)),
-                     dut.swap_force.eq(AnySeq(1)), dut.fetch_grant.eq(AnySeq(1)),
+        c = self.c
+        D, M = c.pool_words, c.slots
+        lo = c.min_stream_length
+        inits = [SlotInit(s < c.channels, lo + s, 1 << 22, 5 + s) for s in range(M)]
+        dut = ChannelPipeline(c, 0, inits, channel_regs_layout(register_map(c)))
+        # elaborated here, so that its state ring (made in elaborate) can be named
+        m.submodules.dut = dut.elaborate(platform)
+        m.d.comb += Assume(~ResetSignal())
+        for s in range(M):
+            rg = dut.regs[s]
+            for name, field in rg.shape():
+                v = AnySeq(field.shape)
+                m.d.comb += getattr(rg, name).eq(v)
+                if name == "length":        # what the register file hands on: clamped into [min, pool]
+                    m.d.comb += [Assume(v >= lo), Assume(v <= D)]
+        m.d.comb += [dut.accept.eq(AnySeq(1)), dut.offer.eq(AnySeq(1)), dut.win_data.eq(AnySeq(32)),
                      dut.fill_en.eq(AnySeq(1)), dut.fill_tag.eq(AnySeq(dut.fill_tag.shape())),
                      dut.fill_data.eq(AnySeq(32))]
-        aw = len(dut.fetch_addr)
-        offset = Signal(aw)
-        m.d.comb += offset.eq(dut.fetch_addr - dut.active_base)
-        m.d.comb += [Assert(dut.active_length >= 1), Assert(dut.active_length <= D),
-                     Assert(dut.index < dut.active_length),
-                     # the registered wrap flag agrees with the compare it stands for
-                     Assert(dut.at_last == (dut.index == dut.active_length - 1))]
-        with m.If(~dut.restarting):
-            m.d.comb += [Assert(dut.fetch_index < dut.active_length), Assert(offset == dut.fetch_index)]
-        with m.Else():
-            m.d.comb += Assert(~dut.fetch_want)
+        aw = c.pool_address_width
+        for k, st in enumerate(dut.ring_states):
+            offset = Signal(aw, name=f"offset{k}")
+            m.d.comb += [offset.eq(st.f_addr - st.base),
+                         Assert(st.len_m1 < D), Assert(st.idx <= st.len_m1),
+                         Assert(st.last == (st.idx == st.len_m1))]
+            with m.If(~st.restart):
+                m.d.comb += [Assert(st.f_idx <= st.len_m1), Assert(offset == st.f_idx)]
+        # the request the pipeline sends is one its state allowed (registered a clock later)
         return m
 
 
 class DelayExactCheck(Elaboratable):
-    def __init__(self, max_delay=6, width=3):
-        self.max_delay = max_delay
-        self.width = width
+    def __init__(self, max_delay=6, width=3, lag=1):
+        self.max_delay, self.width, self.lag = max_delay, width, lag
 
     def elaborate(self, platform):
         m = Module()
-        maxd, W = self.max_delay, self.width
-        m.submodules.dut = dut = DelayLine(W, maxd)
-        en, x, d = AnySeq(1), AnySeq(W), AnySeq(range(maxd + 1))
+        maxd, W, lag = self.max_delay, self.width, self.lag
+        m.submodules.dut = dut = DelayLine(W, maxd, lag)
+        wr, rd, late, x, d = AnySeq(1), AnySeq(1), AnySeq(1), AnySeq(W), AnySeq(range(maxd + 1))
+        count = Signal(range(dut.depth))          # the step the next write is for
         m.d.comb += [Assume(d <= maxd), Assume(~ResetSignal()),
-                     dut.en.eq(en), dut.i.eq(x), dut.delay.eq(d)]
-        # hist[j] visible during step n holds x[n-1-j]; dh[2] holds d[n-3]
-        hist = [Signal(W, name=f"hist{j}") for j in range(maxd + 3)]
-        dh = [Signal(range(maxd + 1), name=f"dh{j}") for j in range(3)]
-        with m.If(en):
+                     dut.w_en.eq(wr), dut.w_index.eq(count), dut.w_data.eq(x),
+                     # a read for the step being written (``late`` 0: the common line) or
+                     # for the one before (1: a window, read after its step's write)
+                     dut.r_index.eq(count - late), dut.r_delay.eq(d)]
+        with m.If(wr):
+            m.d.sync += count.eq(count + 1)
+        # How the engine uses it: step n + 1 is never written in the clock of a
+        # read for step n that follows step n's write (the window reads a step
+        # between its write and the next), nor in the clock after any read for
+        # step n (that read takes the RAM in that clock's edge).
+        prev_rd = Signal()
+        prev_step = Signal.like(count)
+        m.d.sync += [prev_rd.eq(rd), prev_step.eq(count - late)]
+        m.d.comb += [Assume(~(rd & late & wr)), Assume(~(wr & prev_rd & (count == prev_step + 1)))]
+        # hist[j] holds the word written for step count - 1 - j
+        hist = [Signal(W, name=f"hist{j}") for j in range(maxd + lag + 1)]
+        with m.If(wr):
             m.d.sync += [hist[0].eq(x)] + [hist[j].eq(hist[j - 1]) for j in range(1, len(hist))]
-            m.d.sync += [dh[0].eq(d), dh[1].eq(dh[0]), dh[2].eq(dh[1])]
-        # From the first sample on: the RAM read register's undefined
-        # power-up value never reaches the output.
-        with m.Switch(dh[2]):
-            for v in range(maxd + 1):
+        expect = Signal(W)
+        with m.Switch(d + late + lag - 1):
+            for v in range(len(hist)):
                 with m.Case(v):
-                    m.d.comb += Assert(dut.o == hist[2 + v])
+                    m.d.comb += expect.eq(hist[v])
+        pipe = [(rd, expect)]
+        for k in range(dut.latency):
+            v, e = Signal(name=f"chk_v{k}"), Signal(W, name=f"chk_e{k}")
+            m.d.sync += [v.eq(pipe[-1][0]), e.eq(pipe[-1][1])]
+            pipe.append((v, e))
+        with m.If(pipe[-1][0]):
+            m.d.comb += Assert(dut.o == pipe[-1][1])
         return m
 
 
 CHECKS = {
     "stream_address": (lambda: StreamAddressCheck(), "prove", 12),
+    "stream_address_m1": (lambda: StreamAddressCheck(slots=1, channels=1), "prove", 12),
+    "stream_address_m3": (lambda: StreamAddressCheck(slots=3, channels=3), "prove", 12),
     "stream_address_interp": (lambda: StreamAddressCheck(interpolation="linear"), "prove", 12),
     "stream_address_fir": (lambda: StreamAddressCheck(interpolation="fir"), "prove", 12),
-    # depth-4 RAM, 24 steps: six wraps of the write pointer (4 s)
+    # depth-4 RAM, 24 clocks: several wraps of the write index
     "delay_exact": (lambda: DelayExactCheck(max_delay=2, width=2), "bmc", 24),
-    # depth-8 RAM, 30 steps (about 5 minutes)
+    # depth-8 RAM, 30 clocks
     "delay_exact_deep": (lambda: DelayExactCheck(max_delay=6, width=2), "bmc", 30),
 }
 
