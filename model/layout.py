@@ -138,6 +138,7 @@ class FarmSettings:
     prf_hz: float = 20_000.0
     pulse_width_us: float = 2.0
     cpi_ms: float = 100.0
+    ram_depth: int | None = None     # words of the build's stream pool; None: not written (no limit)
 
 
 @dataclass(frozen=True)
@@ -424,7 +425,7 @@ def place_turbines(layout: Layout, radar: RadarSite, wind_from_deg: float, *,
 # ---------------------------------------------------------------------------
 # Output
 
-def _windmill_table(p: PlacedTurbine) -> list[str]:
+def _windmill_table(p: PlacedTurbine, tower_rcs_m2: float | None = None) -> list[str]:
     c = p.turbine_class
     scale = p.rotor_diameter_m / c.rotor_diameter_m
     r_hub, r_tip = c.hub_diameter_m / 2 * scale, p.blade_length_m
@@ -452,12 +453,15 @@ def _windmill_table(p: PlacedTurbine) -> list[str]:
         f"wire_radius_min = {r_hub:.3f}",
         f"wire_radius_max = {r_tip:.3f}",
         f"wire_reflectivity = {c.wire_reflectivity:g}",
+        *([f"tower_rcs = {tower_rcs_m2:g}"] if tower_rcs_m2 else []),
     ]
 
 
-def farm_toml(placed: list[PlacedTurbine], settings: FarmSettings, *, header: list[str]) -> str:
+def farm_toml(placed: list[PlacedTurbine], settings: FarmSettings, *, header: list[str],
+              tower_rcs_m2: float | None = None) -> str:
     """The farm config (``docs/farm_layouts.md``): the settings, then one
-    ``[[windmill]]`` per turbine in layout order; ``header`` lines become comments."""
+    ``[[windmill]]`` per turbine in layout order; ``header`` lines become comments.
+    ``tower_rcs_m2``: every turbine's static return (tower and nacelle), m²."""
     lines = [f"# {h}" if h else "#" for h in header]
     lines += [
         f"sample_rate = {settings.sample_rate_mhz:g}          # MHz, the RTS sample rate",
@@ -465,18 +469,23 @@ def farm_toml(placed: list[PlacedTurbine], settings: FarmSettings, *, header: li
         f"prf = {settings.prf_hz:g}               # Hz",
         f"pulse_width = {settings.pulse_width_us:g}           # µs",
         f"cpi = {settings.cpi_ms:g}                 # ms",
+        *([f"ram_depth = {settings.ram_depth}         # words: the stream pool of the build to load"]
+          if settings.ram_depth is not None else []),
     ]
     for p in placed:
-        lines += _windmill_table(p)
+        lines += _windmill_table(p, tower_rcs_m2)
     return "\n".join(lines) + "\n"
 
 
 def make_farm(layout: Layout, radar: RadarSite, wind_from_deg: float, *, turbine_class: TurbineClass,
               settings: FarmSettings, wind_speed_m_s: float | None = None,
-              max_range_km: float | None = None, layout_name: str = "") -> tuple[str, list[str]]:
+              max_range_km: float | None = None, layout_name: str = "",
+              tower_rcs_m2: float | None = None) -> tuple[str, list[str]]:
     """The farm config text for ``layout`` and a summary of what it keeps and loses.
 
-    ``max_range_km`` None: the unambiguous range of ``settings.prf_hz``. The
+    ``max_range_km`` None: the unambiguous range of ``settings.prf_hz``.
+    ``tower_rcs_m2``: a static return (tower and nacelle, the zero-Doppler line
+    of seed Fig. 4.6) of that RCS on every turbine; None or 0: none. The
     summary's lines head the config as comments and are what ``rast farm`` prints.
     """
     limit = unambiguous_range_km(settings.prf_hz) if max_range_km is None else max_range_km
@@ -499,9 +508,11 @@ def make_farm(layout: Layout, radar: RadarSite, wind_from_deg: float, *, turbine
         f"slant ranges {min(ranges):.3f}-{max(ranges):.3f} km (maximum {limit:.3f} km), "
         f"rotor angles {min(angles):.1f}-{max(angles):.1f} deg, "
         f"rpm {min(p.rpm for p in placed):.2f}-{max(p.rpm for p in placed):.2f}",
+        *([f"tower and nacelle: a static return of {tower_rcs_m2:g} m2 per turbine (--tower-rcs; generic, "
+           "not measured)"] if tower_rcs_m2 else []),
         f"bearings from the radar {start:.2f}-{end:.2f} deg: an azimuth spread of {width:.2f} deg",
         "One RTS replays every turbine from the bearing of its own antenna: ranges and aspect",
         f"angles (rotor_angle) are kept, the azimuth spread of {width:.2f} deg is not.",
     ]
     header = ["Wind farm written by `rast farm` from a turbine layout (docs/farm_layouts.md).", *summary]
-    return farm_toml(placed, settings, header=header), summary
+    return farm_toml(placed, settings, header=header, tower_rcs_m2=tower_rcs_m2), summary

@@ -46,6 +46,17 @@ def _number(what: str):
     return parse
 
 
+def _words(text: str) -> int:
+    """An argparse type: a positive whole number of words."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive whole number of words, not {text}")
+    return value
+
+
 def _bearing(text: str) -> float:
     """An argparse type: a bearing in [0, 360) degrees."""
     try:
@@ -72,6 +83,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="generic turbine class (default nrel-5mw; docs/farm_layouts.md)")
     parser.add_argument("--max-range-km", type=_number("a positive number of km"),
                         help="farthest turbine allowed (default: the unambiguous range c/(2 PRF))")
+    parser.add_argument("--tower-rcs", type=_number("a positive RCS in m²"), metavar="M2",
+                        help="a static return (tower and nacelle: the zero-Doppler line) of this RCS on "
+                        "every turbine (default: none)")
     parser.add_argument("--radar-frequency", type=_number("a positive frequency in MHz"),
                         default=d.radar_frequency_mhz, metavar="MHZ", help=f"default {d.radar_frequency_mhz:g}")
     parser.add_argument("--prf", type=positive_hz, default=d.prf_hz, metavar="HZ", help=f"default {d.prf_hz:g}")
@@ -81,6 +95,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="US", help=f"default {d.pulse_width_us:g}")
     parser.add_argument("--cpi", type=_number("a positive number of ms"), default=d.cpi_ms, metavar="MS",
                         help=f"default {d.cpi_ms:g}")
+    parser.add_argument("--ram-depth", type=_words, metavar="WORDS",
+                        help="the stream pool of the build to load, written as ram_depth (default: none)")
     parser.add_argument("--out", required=True, help="farm config (TOML) to write")
 
 
@@ -90,11 +106,12 @@ def run(args) -> int:
 
     check_output(args.out, folder=False, option="--out")
     layout = read_layout(args.layout)
-    settings = FarmSettings(args.sample_rate, args.radar_frequency, args.prf, args.pulse_width, args.cpi)
+    settings = FarmSettings(args.sample_rate, args.radar_frequency, args.prf, args.pulse_width, args.cpi,
+                            args.ram_depth)
     text, summary = make_farm(layout, RadarSite.from_option(args.radar, layout.geodetic), args.wind_from,
                               turbine_class=TURBINE_CLASSES[args.turbine_model], settings=settings,
                               wind_speed_m_s=args.wind_speed, max_range_km=args.max_range_km,
-                              layout_name=Path(args.layout).name)
+                              layout_name=Path(args.layout).name, tower_rcs_m2=args.tower_rcs)
     # The config parser's own checks (e.g. the pulse width against the PRI) before anything is written.
     parse_config(tomllib.loads(text), "the farm config")
     out = Path(args.out)

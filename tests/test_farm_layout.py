@@ -292,6 +292,28 @@ def test_example_farm_regenerates_identically(tmp_path, capsys):
     assert len(farm.windmills) >= 60 and farm.radar.prf_hz == 12000
 
 
+def test_tower_and_ram_depth_options(tmp_path, capsys):
+    """--tower-rcs puts a static return on every turbine, --ram-depth the build's pool at the top."""
+    layout = tmp_path / "layout.csv"
+    layout.write_text("x,y\n0,3000\n400,3200\n")
+    out = tmp_path / "farm.toml"
+    status, _, err = run(["farm", layout, "--radar", "0,0,20", "--wind-from", "90", "--tower-rcs", "50",
+                          "--ram-depth", "4096", "--out", out], capsys)
+    assert status == 0, err
+    farm = load_config(out)
+    assert farm.ram_depth == 4096
+    assert [w.tower.rcs_m2 for w in farm.windmills] == [50.0, 50.0]
+    assert all(w.tower.shadow_width_deg == 0 for w in farm.windmills)
+    status, _, err = run(["farm", layout, "--radar", "0,0,20", "--wind-from", "90", "--out", out], capsys)
+    assert status == 0, err
+    assert all(w.tower is None for w in load_config(out).windmills) and load_config(out).ram_depth is None
+    bad = tmp_path / "refused" / "bad.toml"
+    bad.parent.mkdir()
+    status, _, err = run(["farm", layout, "--radar", "0,0,20", "--wind-from", "90", "--ram-depth", "0",
+                          "--out", bad], capsys)
+    assert_refused(status, err, bad, "--ram-depth", "positive whole number")
+
+
 def test_preview_draws_a_range_doppler_map_for_many_bins(tmp_path, capsys):
     rows = "\n".join(f"{k * 40},{3000 + 400 * k}" for k in range(10))
     (tmp_path / "l.csv").write_text("x,y\n" + rows + "\n")
