@@ -2,21 +2,29 @@
 
 from __future__ import annotations
 
+import math
+import textwrap
+
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .radar import RangeBin, Spectrogram  # noqa: E402
 from .sfdr import SfdrResult  # noqa: E402
 from .turbine import max_doppler_hz  # noqa: E402
 
-__all__ = ["draw_spectrogram", "save_preview", "save_range_doppler", "MAX_PANELS"]
+__all__ = ["draw_spectrogram", "save_preview", "save_range_doppler", "save_gate_grid", "grid_columns",
+           "gate_title", "MAX_PANELS", "STACKED_PANELS"]
 
 #: ``rast preview`` draws one spectrogram panel per range bin up to this many
-#: bins, and the range-Doppler map beyond.
-MAX_PANELS = 8
+#: bins (a 64-channel farm: one bin per channel), and the range-Doppler map beyond.
+MAX_PANELS = 64
+#: Up to this many range bins (or gates) the panels are stacked one per row, full width;
+#: beyond, they are laid out in a grid of small panels (:func:`save_gate_grid`).
+STACKED_PANELS = 8
 
 _COLOURS = ["#ff5a5f", "#4dd0e1", "#ffd54f", "#aed581", "#ce93d8", "#ffab91", "#90caf9", "#f48fb1"]
 
@@ -55,12 +63,27 @@ def save_preview(farm, bins: list[RangeBin], spectra: list[Spectrogram], path, *
     """One panel per range bin, a common dB scale, ±max Doppler lines per windmill.
 
     Each panel shows the whole band ±PRF/2 (``zoom_hz``: only ±zoom_hz); with
-    ``sfdr`` (one result per bin) its title states the bin's SFDR.
+    ``sfdr`` (one result per bin) its title states the bin's SFDR. Up to
+    ``STACKED_PANELS`` bins the panels are stacked full width, beyond that they
+    form a grid of small panels (:func:`save_gate_grid`).
     """
+    radar = farm.radar
+    title = title or (f"{radar.frequency_mhz / 1e3:g} GHz radar, PRF {radar.prf_hz / 1e3:g} kHz, "
+                      f"CPI {radar.cpi_ms:g} ms")
+    wavelength = farm.radar.wavelength_m
+    if len(bins) > STACKED_PANELS:
+        gates = [dict(title=gate_title(b.range_km, [farm.windmills[i].name for i in b.members],
+                                       None if sfdr is None else sfdr[k].sfdr_db),
+                      max_doppler_hz=[max_doppler_hz(farm.windmills[i], wavelength) for i in b.members],
+                      power_db=[spec.power_db]) for k, (b, spec) in enumerate(zip(bins, spectra))]
+        save_gate_grid(path, spectra[0].times_s, spectra[0].doppler_hz, gates,
+                       dynamic_range_db=dynamic_range_db, zoom_hz=zoom_hz,
+                       title=f"{len(farm.windmills)} windmills in {len(bins)} range bins — {title}; "
+                             "dashed: ±max Doppler of each windmill in the bin")
+        return
     reference = max(float(s.power_db.max()) for s in spectra)
     fig, axes = plt.subplots(len(bins), 1, figsize=(9, 3.2 * len(bins) + 0.8), squeeze=False,
                              layout="constrained")
-    wavelength = farm.radar.wavelength_m
     image = None
     for k, (ax, b, spec) in enumerate(zip(axes[:, 0], bins, spectra)):
         lines = [(f"{farm.windmills[i].name} ({farm.windmills[i].rpm:g} rpm)",
@@ -69,11 +92,106 @@ def save_preview(farm, bins: list[RangeBin], spectra: list[Spectrogram], path, *
                                  reference_db=reference, lines=lines, zoom_hz=zoom_hz)
         head = f"range bin {b.range_km:g} km"
         ax.set_title(head if sfdr is None else f"{head} — SFDR {sfdr[k].sfdr_db:.1f} dB", fontsize=10)
-    radar = farm.radar
-    fig.suptitle(title or (f"{radar.frequency_mhz / 1e3:g} GHz radar, PRF {radar.prf_hz / 1e3:g} kHz, "
-                           f"CPI {radar.cpi_ms:g} ms"), fontsize=11)
+    fig.suptitle(title, fontsize=11)
     fig.colorbar(image, ax=axes[:, 0].tolist(), label="power (dB rel. peak)", shrink=min(1.0, 0.4 + 0.3 * len(bins)))
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def grid_columns(n: int) -> int:
+    """Gates per row of the grid: as many rows as columns (8 × 8 for 64 gates)."""
+    return max(1, math.ceil(math.sqrt(n)))
+
+
+def gate_title(range_km: float, names: list[str], sfdr_db: float | None = None, *, width: int = 30,
+               lines: int = 3) -> str:
+    """A small panel's title: the gate's range (and SFDR), then its windmills'
+    names wrapped to ``width`` characters on at most ``lines`` lines (``+N``:
+    the names left out)."""
+    head = f"{range_km:.3f} km" + ("" if sfdr_db is None else f" · SFDR {sfdr_db:.0f} dB")
+    for shown in range(len(names), -1, -1):
+        text = ", ".join(names[:shown]) + (f" +{len(names) - shown}" if shown < len(names) else "")
+        wrapped = textwrap.wrap(text, width)
+        if len(wrapped) <= lines:
+            return "\n".join([head, *wrapped])
+    return head
+
+
+def save_gate_grid(path, times_s: np.ndarray, doppler_hz: np.ndarray, gates: list[dict], *,
+                   columns: tuple[str, ...] = ("",), dynamic_range_db: float = 90.0,
+                   zoom_hz: float | None = None, title: str = "", dpi: int = 100) -> None:
+    """Many range gates' spectrograms as a grid of small panels, one colour scale.
+
+    ``gates``: per gate a dict with ``title`` (:func:`gate_title`), ``max_doppler_hz``
+    (its windmills', drawn as dashed lines at ±each) and ``power_db``: one
+    (frames, bins) array per entry of ``columns``, drawn side by side in the
+    gate's cell (``rast cosim``: the RTL's and the model's; ``columns`` label
+    the panels in their corner). Every panel spans the whole Doppler band
+    ±PRF/2 (``zoom_hz``: only ±zoom_hz) and the same dB scale, 0 dB the
+    strongest value of any panel, so gates compare at a glance.
+    """
+    n, k = len(gates), len(columns)
+    per_row = grid_columns(n)
+    rows = math.ceil(n / per_row)
+    # a cell of k panels, then (for k > 1) a narrow empty column that sets the cells apart
+    step = k + (k > 1)
+    ratios = ([1.0] * k + [0.02] * (k > 1)) * per_row
+    # laid out by hand in inches (matplotlib's constrained layout takes a minute on 200 axes)
+    panel_w, panel_h, title_h, gap = (2.3 if k == 1 else 1.35), 1.45, 0.5, 0.1
+    left, right, bottom, top_h = 0.6, 1.1, 0.45, 0.45
+    width = sum(ratios) * panel_w + gap * (len(ratios) - 1) + left + right
+    height = rows * (panel_h + title_h) + bottom + top_h
+    fig = plt.figure(figsize=(width, height))
+    grid = fig.add_gridspec(rows, step * per_row, width_ratios=ratios, left=left / width,
+                            right=1 - right / width, bottom=bottom / height, top=1 - (top_h + title_h) / height,
+                            wspace=gap * len(ratios) / (sum(ratios) * panel_w), hspace=title_h / panel_h)
+    axes = np.asarray(grid.subplots(squeeze=False))      # not shared: sharing 200 axes is quadratic
+    panels = axes[:, [cell * step + c for cell in range(per_row) for c in range(k)]]
+    for ax in axes[:, [cell * step + k for cell in range(per_row)]].ravel() if k > 1 else []:
+        ax.set_visible(False)
+    top = max(float(p.max()) for g in gates for p in g["power_db"])
+    half_bin = (doppler_hz[1] - doppler_hz[0]) / 2 if doppler_hz.size > 1 else 0.5
+    band = (doppler_hz[0] - half_bin, doppler_hz[-1] + half_bin)
+    frame = times_s[1] - times_s[0] if times_s.size > 1 else 1.0
+    extent = (times_s[0] - frame / 2, times_s[-1] + frame / 2, *band)
+    image = None
+    for index, gate in enumerate(gates):
+        row, cell = divmod(index, per_row)
+        for c, power in enumerate(gate["power_db"]):
+            ax = panels[row, cell * k + c]
+            image = ax.imshow(power.T - top, origin="lower", aspect="auto", extent=extent,
+                              vmin=-dynamic_range_db, vmax=0, cmap="viridis", interpolation="nearest")
+            for f in gate["max_doppler_hz"]:
+                ax.axhline(f, color="#ff5a5f", linestyle="--", linewidth=0.5)
+                ax.axhline(-f, color="#ff5a5f", linestyle="--", linewidth=0.5)
+            if c == 0:
+                ax.set_title(gate["title"], fontsize=6.5, loc="left", pad=2)
+            if columns[c]:
+                ax.text(0.03, 0.97, columns[c], transform=ax.transAxes, fontsize=6, color="white",
+                        va="top", ha="left")
+            ax.tick_params(labelsize=6, length=2, pad=1)
+            ax.xaxis.set_major_locator(MaxNLocator(4))
+    low, high = band if zoom_hz is None else (max(-zoom_hz, band[0]), min(zoom_hz, band[1]))
+    for index, ax in enumerate(panels.ravel()):
+        column = index % (per_row * k)
+        if index >= n * k:
+            ax.set_visible(False)
+            continue
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(low, high)
+        if column == 0:
+            ax.set_ylabel("Doppler (Hz)", fontsize=7)
+        else:
+            ax.tick_params(labelleft=False)
+        if index + per_row * k >= n * k:           # no panel under it
+            ax.set_xlabel("time (s)", fontsize=7)
+        else:
+            ax.tick_params(labelbottom=False)
+    bar = fig.add_axes([1 - (right - 0.25) / width, 0.3, 0.15 / width, 0.4])
+    fig.colorbar(image, cax=bar, label="power (dB rel. peak)")
+    if title:
+        fig.suptitle(title, fontsize=10, y=1 - 0.15 / height, va="top")
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
 
 

@@ -71,11 +71,26 @@ def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from rast.model.plot import STACKED_PANELS, gate_title, save_gate_grid
     from rast.model.turbine import max_doppler_hz
     times, dopp = data["times_s"], data["doppler_hz"]
     half_bin = (dopp[1] - dopp[0]) / 2 if dopp.size > 1 else 0.5
     band = (dopp[0] - half_bin, dopp[-1] + half_bin)
     n = len(e.gates)
+    if n > STACKED_PANELS:          # many gates: a grid of small panels, RTL beside model in each cell
+        lam = e.farm.radar.wavelength_m
+        gates = [dict(title=gate_title(rk, [e.farm.windmills[i].name for i in members],
+                                       sfdr[g]["sfdr_db"] if sfdr and g < len(sfdr) else None),
+                      max_doppler_hz=[max_doppler_hz(e.farm.windmills[i], lam) for i in members],
+                      power_db=[data[f"power_rtl_{g}"], data[f"power_model_{g}"]])
+                 for g, (_, rk, members) in enumerate(e.gates)]
+        tmp = out.with_suffix(".tmp.png")
+        save_gate_grid(tmp, times, dopp, gates, columns=("RTL", "model"), dynamic_range_db=dynamic_range_db,
+                       zoom_hz=zoom_hz, title=f"rast cosim {Path(e.config).name}: {n} gates, "
+                       f"{e.pulse.n_pulses} pulses, PRF {e.farm.radar.prf_hz:g} Hz, CPI {e.farm.radar.cpi_ms:g} ms, "
+                       f"overlap {overlap:g}; each cell: RTL (left) beside the bit-exact model; dashed: ±max Doppler")
+        tmp.replace(out)
+        return
     fig, axes = plt.subplots(n, 2, figsize=(12, 3.4 * n + 0.6), squeeze=False, layout="constrained")
     ref = max(float(data[f"power_rtl_{g}"].max()) for g in range(n))
     for g, (off, rk, members) in enumerate(e.gates):

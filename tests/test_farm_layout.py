@@ -314,14 +314,30 @@ def test_tower_and_ram_depth_options(tmp_path, capsys):
     assert_refused(status, err, bad, "--ram-depth", "positive whole number")
 
 
-def test_preview_draws_a_range_doppler_map_for_many_bins(tmp_path, capsys):
+def test_preview_draws_a_grid_of_range_bins_or_a_map(tmp_path, capsys):
+    """More range bins than fit stacked: a grid of small panels, not one tall
+    column; --range-doppler draws the map instead."""
+    from rast.model.plot import STACKED_PANELS
     rows = "\n".join(f"{k * 40},{3000 + 400 * k}" for k in range(10))
     (tmp_path / "l.csv").write_text("x,y\n" + rows + "\n")
     config = tmp_path / "farm.toml"
     assert run(["farm", tmp_path / "l.csv", "--radar", "0,0,20", "--wind-from", "90", "--out", config],
                capsys)[0] == 0
-    png = tmp_path / "map.png"
+    png = tmp_path / "grid.png"
     status, printed, err = run(["preview", config, "--seconds", "0.2", "--out", png], capsys)
     assert status == 0, err
-    assert "10 range bin(s)" in printed and "range-Doppler map" in printed
+    assert "10 range bin(s)" in printed and "range-Doppler map" not in printed and 10 > STACKED_PANELS
+    width, height = png_size(png)
+    assert height < 1.5 * width            # a grid (4 x 3 panels), not ten stacked rows
+    png = tmp_path / "map.png"
+    status, printed, err = run(["preview", config, "--seconds", "0.2", "--range-doppler", "--out", png], capsys)
+    assert status == 0, err
+    assert "range-Doppler map" in printed
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def png_size(path) -> tuple[int, int]:
+    """Width and height of a PNG, from its IHDR chunk."""
+    data = Path(path).read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
