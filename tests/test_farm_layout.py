@@ -314,6 +314,48 @@ def test_tower_and_ram_depth_options(tmp_path, capsys):
     assert_refused(status, err, bad, "--ram-depth", "positive whole number")
 
 
+# ------------------------------------------------------------------ the 64-channel block-RAM example
+
+ATC_ARGS = ["--radar", "32.1870,-100.4315,20", "--wind-from", "200", "--wind-speed", "9",
+            "--radar-frequency", "2800", "--prf", "1000", "--pulse-width", "1", "--tower-rcs", "100",
+            "--ram-depth", "81920"]
+#: The default build of the time-multiplexed engine: stream pool, common delay and tap
+#: window (samples at 20 MS/s), FIR interpolation up to fs/768.
+POOL_WORDS, MAX_DELAY, MAX_TAP, FIR_RATIO = 81_920, 8190, 2046, 768
+
+
+def test_atc_example_regenerates_identically(tmp_path, capsys):
+    """examples/farm_atc_sband.toml is what `rast farm` makes of the example layout
+    with the S-band radar of docs/farm_layouts.md, byte for byte."""
+    docs = (EXAMPLES.parent / "docs" / "farm_layouts.md").read_text()
+    assert " ".join(ATC_ARGS) in " ".join(docs.replace("\\", " ").split())
+    out = tmp_path / "farm.toml"
+    status, _, err = run(["farm", EXAMPLES / "farm_layout_uswtdb.csv", *ATC_ARGS, "--out", out], capsys)
+    assert status == 0, err
+    assert out.read_text() == (EXAMPLES / "farm_atc_sband.toml").read_text()
+
+
+def test_atc_example_fits_the_block_ram_build():
+    """64 channels whose streams fit the pool with room to reload the longest while
+    all play, whose depth fits the tap window, played by the FIR within its rate
+    and seen by the radar without Doppler aliasing."""
+    from rast.model.stream import build_farm_streams
+    farm = load_config(EXAMPLES / "farm_atc_sband.toml")
+    assert len(farm.windmills) == 64 and farm.ram_depth == POOL_WORDS
+    assert 2700 <= farm.radar.frequency_mhz <= 2900                    # S band, airport surveillance
+    assert farm.sample_rate_hz % farm.radar.prf_hz == 0                 # whole samples per PRI
+    assert all(w.num_blades == 3 and w.num_rcs == 8 and w.wire is not None and w.tower.rcs_m2 > 0
+               for w in farm.windmills)
+    fs = build_farm_streams(farm)                                       # refuses what ram_depth cannot hold
+    lengths = [s.plan.length for s in fs.streams]
+    assert sum(lengths) + max(lengths) <= POOL_WORDS                    # a reload of the longest fits beside
+    delays = [s.delay_samples for s in fs.streams]
+    assert min(delays) <= MAX_DELAY and max(delays) - min(delays) <= MAX_TAP
+    assert all(s.plan.stream_rate_hz <= farm.sample_rate_hz / FIR_RATIO for s in fs.streams)
+    assert all(s.plan.stream_rate_hz >= 4 * s.plan.max_doppler_hz for s in fs.streams)
+    assert max(s.plan.max_doppler_hz for s in fs.streams) < farm.radar.prf_hz / 2
+
+
 def test_preview_draws_a_grid_of_range_bins_or_a_map(tmp_path, capsys):
     """More range bins than fit stacked: a grid of small panels, not one tall
     column; --range-doppler draws the map instead."""
