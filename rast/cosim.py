@@ -6,7 +6,8 @@ config, drives ``--seconds`` of sampled radar pulses through it under cocotb
 output with the bit-exact model, and writes to ``--out``:
 
 * ``spectrogram.png``: the micro-Doppler spectrogram from the RTL's samples
-  beside the model's, one row per range gate, over the whole Doppler band
+  beside the model's, one row per range gate (beyond eight gates a grid of
+  small panels, RTL beside model in each cell), over the whole Doppler band
   ±PRF/2 (``--zoom HZ``: only ±HZ);
 * ``report.txt`` and ``report.json``: samples compared, mismatches, run time,
   simulated samples per second, each windmill's maximum Doppler, the PRF
