@@ -222,12 +222,13 @@ class _OutFile:
     def _put(self, view) -> None:
         while view:
             try:
-                done = os.pwrite(self.fd, view, self.offset)
+                done = os.write(self.fd, view)
             except OSError as error:
                 if not (self.direct and error.errno == errno.EINVAL):
                     raise
                 os.close(self.fd)                # O_DIRECT refused at the first write
                 self.fd = os.open(self.path, os.O_WRONLY | getattr(os, "O_BINARY", 0))
+                os.lseek(self.fd, self.offset, os.SEEK_SET)
                 self.direct = False
                 continue
             view, self.offset = view[done:], self.offset + done
