@@ -337,6 +337,7 @@ def doppler_check(e: E2E, spectra: list) -> list[dict]:
         spec = spectra[g]
         res = spec.resolution_hz
         cpi_s = 1.0 / res
+        strongest = float(spec.power_db.max())
         for wi in members:
             w = farm.windmills[wi]
             track = physics_doppler_track(w, lam, spec.times_s)
@@ -353,8 +354,7 @@ def doppler_check(e: E2E, spectra: list) -> list[dict]:
                 last += 1
             frames = []
             for k in range(first, last + 1):
-                edge = signature_edge_hz(spec.power_db[k], spec.doppler_hz, side_sign,
-                                         reference_db=float(spec.power_db.max()))
+                edge = signature_edge_hz(spec.power_db[k], spec.doppler_hz, side_sign, reference_db=strongest)
                 physics, holder = _gate_edge_physics(farm, [wi] + [m for m in received[g] if m != wi], lam,
                                                      side_sign, spec.times_s[k], cpi_s, res, edge)
                 frames.append((abs(edge - physics), k, edge, physics, holder))
