@@ -35,11 +35,18 @@ samples per pulse still proves that all outputs equal the model's.
 The wrapper waits for ``start`` (driven by the cocotb testbench after it has
 written the files, or tied high by the bare C++ harness) and raises ``done``
 when ``n_out`` outputs were seen (or ``timeout`` cycles passed without one).
-No Python runs between ``start`` and ``done``. With ``RAST_EXTERNAL_CLOCK``
-defined, ``clk`` is a port: the bare C++ harness toggles it, and under
-cocotb + Verilator cocotb's GPI clock (C++) does (``rast.sim.runner``'s bulk
-builds). Without it the wrapper makes its own clock (``always #5``), which is
-how Icarus runs it.
+No Python runs between ``start`` and ``done``. Clocking, chosen by a define:
+
+* ``RAST_BURST_CLOCK`` (``rast.sim.runner``'s bulk builds under Verilator):
+  the port is ``tick``, and every change of it runs :data:`BURST_CYCLES` clock
+  cycles inside one evaluation (a zero-delay oscillator in the wrapper), so
+  what a simulator and cocotb spend per time slot is spent once per burst.
+  cocotb's GPI clock (C++) or the bare C++ harness toggles ``tick``. Simulated
+  time is then no measure of cycles: the wrapper's ``cycles`` counter is.
+* ``RAST_EXTERNAL_CLOCK`` (bulk builds with waves, so that the dump shows
+  every cycle): ``clk`` is a port, one cycle per period.
+* neither: the wrapper makes its own clock (``always #5``), which is how
+  Icarus runs it.
 """
 
 from __future__ import annotations
@@ -53,15 +60,19 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["PortMap", "bulk_verilog", "TEMPLATE", "CFG_FIELDS", "BulkJob", "write_job", "read_outputs",
-           "read_summary", "checksums", "MAX_CAP", "CLOCK_PERIOD_NS", "EXTERNAL_CLOCK_ENV"]
+           "read_summary", "checksums", "MAX_CAP", "CLOCK_PERIOD_NS", "BURST_CYCLES", "CLOCK_ENV"]
 
 MAX_CAP = 64
 #: Stands for an output sample with X/Z bits (as rast.sim.testbench.X_VALUE).
 X_VALUE = -(1 << 62)
 CLOCK_PERIOD_NS = 10
-#: Set (by ``rast.sim.runner.run``) when the wrapper was built with
-#: ``RAST_EXTERNAL_CLOCK``: the testbench then drives ``clk`` itself.
-EXTERNAL_CLOCK_ENV = "RAST_EXTERNAL_CLOCK"
+#: Clock cycles per change of ``tick`` when the wrapper is built with ``RAST_BURST_CLOCK``.
+BURST_CYCLES = 256
+#: Set by ``rast.sim.runner.run`` to how the wrapper was built (``Build.clock``):
+#: ``clk`` (``RAST_EXTERNAL_CLOCK``: the testbench drives ``clk``, a cycle per
+#: period), ``burst`` (``RAST_BURST_CLOCK``: it drives ``tick``, BURST_CYCLES
+#: cycles per edge); unset, the wrapper clocks itself.
+CLOCK_ENV = "RAST_BULK_CLOCK"
 
 #: Lines of cfg.hex, in order.
 CFG_FIELDS = ("n_src", "active", "pri", "pulses", "flush", "n_regs", "n_out", "gap_thresh",
@@ -143,7 +154,8 @@ def bulk_verilog(p: PortMap, *, src_aw: int = 22, reg_aw: int = 18) -> str:
                             for n in p.observe),
         bus_ready_default="" if p.bus_ready else "    assign bus_ready = 1'b1;\n",
         in_width=p.in_width, out_width=p.out_width, src_aw=src_aw, reg_aw=reg_aw,
-        n_cfg=len(CFG_FIELDS), max_cap=MAX_CAP, cap_base=n_fixed, clock_half_ns=CLOCK_PERIOD_NS // 2)
+        n_cfg=len(CFG_FIELDS), max_cap=MAX_CAP, cap_base=n_fixed, clock_half_ns=CLOCK_PERIOD_NS // 2,
+        burst=BURST_CYCLES)
     text = _template()
     unknown = set(_FIELD.findall(text)) - set(values)
     if unknown:

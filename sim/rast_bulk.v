@@ -4,7 +4,11 @@
 // module and port names, widths, the observed outputs) and checks that the
 // cfg.hex fields below are rast.sim.bulk.CFG_FIELDS. The file protocol and the
 // input/output patterns are described in rast.sim.bulk.
-// Define RAST_EXTERNAL_CLOCK to make clk a port (the bare C++ harness).
+// Clocking: by default the wrapper makes its own clock (`always #5`, Icarus).
+// RAST_EXTERNAL_CLOCK makes clk a port, one clock cycle per rising edge.
+// RAST_BURST_CLOCK makes `tick` a port instead: every change of tick (either
+// edge) runs BURST clock cycles of the wrapper and the DUT inside one
+// evaluation of the simulator, clk made by a zero-delay oscillator below.
 /* verilator lint_off UNUSEDSIGNAL */
 /* verilator lint_off UNUSEDPARAM */
 /* verilator lint_off WIDTHEXPAND */
@@ -12,7 +16,9 @@
 /* verilator lint_off BLKSEQ */
 /* verilator lint_off PINCONNECTEMPTY */
 module rast_bulk (
-`ifdef RAST_EXTERNAL_CLOCK
+`ifdef RAST_BURST_CLOCK
+    input wire tick /*verilator public_flat_rw*/,
+`elsif RAST_EXTERNAL_CLOCK
     input wire clk /*verilator public_flat_rw*/,
 `endif
 ${obs_ports}    input wire start /*verilator public_flat_rw*/,
@@ -33,7 +39,29 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
     localparam N_CFG = ${n_cfg};
     localparam MAX_CAP = ${max_cap};
     localparam CAP_BASE = ${cap_base};
-`ifndef RAST_EXTERNAL_CLOCK
+`ifdef RAST_BURST_CLOCK
+    // BURST clock cycles per change of tick, in zero simulated time: the
+    // change starts the first cycle's rising edge, and each edge of clk
+    // schedules the next one (non-blocking, so it lands after every process
+    // of this edge has run) until 2 * BURST edges were made; clk ends low.
+    // A simulator runs this as 2 * BURST rounds of its evaluation loop
+    // (Verilator: raise --converge-limit above that).
+    localparam BURST = ${burst};
+    reg clk = 1'b0;
+    reg tick_seen = 1'b0;
+    reg [31:0] half_left = 32'd0;
+    always @(posedge tick or negedge tick or posedge clk or negedge clk) begin
+        if (tick != tick_seen) begin
+            tick_seen <= tick;
+            half_left <= 2 * BURST - 1;
+            clk <= 1'b1;
+        end else if (half_left != 32'd0) begin
+            half_left <= half_left - 32'd1;
+            clk <= ~half_left[0];
+        end
+    end
+`elsif RAST_EXTERNAL_CLOCK
+`else
     reg clk = 1'b0;
     always #${clock_half_ns} clk = ~clk;
 `endif
@@ -62,10 +90,12 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
     // run on an event, and Icarus gives no event for a declaration initialiser,
     // so a reset that is 1 from the start never reaches their outputs (they stay X).
     reg rst = 1'b0;
-`ifndef RAST_EXTERNAL_CLOCK
-    initial #1 rst = 1'b1;
-`else
+`ifdef RAST_EXTERNAL_CLOCK
     initial rst = 1'b1;
+`elsif RAST_BURST_CLOCK
+    initial rst = 1'b1;
+`else
+    initial #1 rst = 1'b1;
 `endif
     reg running = 1'b0;
     reg [3:0] rst_count = 4'd0;

