@@ -60,7 +60,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["PortMap", "bulk_verilog", "TEMPLATE", "CFG_FIELDS", "BulkJob", "write_job", "read_outputs",
-           "read_summary", "checksums", "MAX_CAP", "CLOCK_PERIOD_NS", "BURST_CYCLES", "CLOCK_ENV"]
+           "read_summary", "checksums", "src_words", "MAX_CAP", "CLOCK_PERIOD_NS", "BURST_CYCLES", "CLOCK_ENV"]
 
 MAX_CAP = 64
 #: Stands for an output sample with X/Z bits (as rast.sim.testbench.X_VALUE).
@@ -218,12 +218,26 @@ def _hex_lines(values: np.ndarray, digits: int) -> bytes:
     return chars.tobytes()
 
 
+def src_words(job: BulkJob) -> np.ndarray:
+    """The words ``src.hex`` holds for ``job``: ``job.src``, or its first
+    ``active`` words when every pulse's words are those (a pulse train without
+    noise). The wrapper reads src.hex in order and wraps at its end, so the
+    DUT sees the same input either way; the simulator then parses one pulse
+    instead of all of them ($readmemh of 4 M words took 1.4 s of a 23 s run)."""
+    src = np.asarray(job.src, dtype=np.uint64)
+    a = job.active
+    if 0 < a < len(src) and len(src) % a == 0 and (src.reshape(-1, a) == src[:a]).all():
+        return src[:a]
+    return src
+
+
 def write_job(job: BulkJob, directory: Path, n_out: int | None = None) -> None:
     """Write ``cfg.hex``, ``src.hex`` and ``regs.hex`` for ``job`` into ``directory``."""
     job.validate()
     d = Path(directory)
+    src = src_words(job)
     cap = sorted(set(job.cap_offsets or []))          # the wrapper walks them in ascending order
-    values = dict(n_src=len(job.src), active=job.active, pri=job.pri, pulses=job.pulses,
+    values = dict(n_src=len(src), active=job.active, pri=job.pri, pulses=job.pulses,
                   flush=job.flush, n_regs=len(job.regs), n_out=job.n_in if n_out is None else n_out,
                   gap_thresh=job.gap_thresh,
                   # the wrapper draws 1 + (random & mask): a mask, not a modulo (no divider per cycle)
@@ -234,8 +248,7 @@ def write_job(job: BulkJob, directory: Path, n_out: int | None = None) -> None:
     for k in range(MAX_CAP):
         values[f"cap_offset{k}"] = cap[k] if k < len(cap) else (1 << 63)
     (d / "cfg.hex").write_bytes(_hex_lines(np.array([values[f] for f in CFG_FIELDS], dtype=np.uint64), 16))
-    (d / "src.hex").write_bytes(_hex_lines(np.asarray(job.src, dtype=np.uint64) if len(job.src)
-                                           else np.zeros(1, np.uint64), 8))
+    (d / "src.hex").write_bytes(_hex_lines(src if len(src) else np.zeros(1, np.uint64), 8))
     if job.regs:
         r = np.array(job.regs, dtype=np.uint64).reshape(-1, 3)
         hi = r[:, 0]
