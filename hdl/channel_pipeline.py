@@ -15,8 +15,8 @@ from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
                                 FIR_COEF_FRAC, FIR_ACC_WIDTH, FIR_REFILL_SAMPLES, CACHE_WORDS,
                                 CACHE_FILL_WORDS, PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH,
-                                WINDOW_LAG, VISIT_CYCLES, WORD_CYCLES, GAIN_CYCLES,
-                                MAC_RESULT_CYCLES, fir_coefficients, mac_merge_cycles)
+                                WINDOW_LAG, WORD_CYCLES, GAIN_CYCLES, CMULT_CYCLES,
+                                MAC_RESULT_CYCLES, fir_coefficients, mac_merge_cycles, visit_cycles)
 from ..model.powerup import ChannelInit
 
 __all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout"]
@@ -45,6 +45,52 @@ def _delay(m, sig, n, name):
         m.d.sync += nxt.eq(sig)
         sig = nxt
     return sig
+
+
+#: Shortest delay kept in distributed RAM rather than in a chain of registers.
+RAM_DELAY_MIN = 3
+
+
+def _ring_delay(m, sig, n, inits, name):
+    """``sig`` delayed by ``n`` clocks, as a chain of ``n`` registers whose
+    power-up values are ``inits`` (the first register's first) would delay it.
+
+    From RAM_DELAY_MIN clocks on the chain is a distributed RAM (written every
+    clock at a running address, read ``n - 1`` clocks later) and one output
+    register: the engine's state rings hold hundreds of bits per slot, and
+    the flip-flops of the chain were most of a 64-channel build's.
+
+    Returns ``(output, registers)``: the registers of a short chain (all of
+    them but the output are in the RAM otherwise)."""
+    layout = sig.shape()
+    if n < RAM_DELAY_MIN:
+        regs = []
+        for k in range(n):
+            nxt = Signal(layout, init=inits[k], name=f"{name}{k}")
+            m.d.sync += nxt.eq(sig)
+            sig = nxt
+            regs.append(nxt)
+        return sig, regs
+    depth = 1 << (n - 1).bit_length()
+    const = (lambda v: layout.const(v)) if isinstance(layout, data.Layout) else (lambda v: v)
+    # the word read in clock k (k = 1 .. n-1 after reset) is what the chain's
+    # end would show then: the power-up value of register n - k
+    init = [const(inits[0]) for _ in range(depth)]
+    for k in range(1, n):
+        init[(k - n) % depth] = const(inits[n - k - 1])
+    mem = Memory(shape=layout, depth=depth, init=init, attrs={"ram_style": "distributed"})
+    m.submodules[name] = mem
+    wp = mem.write_port()
+    rp = mem.read_port(domain="comb")
+    # the write and the read address, each a counter of its own (a register
+    # into the RAMs' address pins, no subtraction on the way)
+    ptr = Signal(range(depth), name=f"{name}_wptr")
+    rptr = Signal(range(depth), init=(1 - n) % depth, name=f"{name}_rptr")
+    m.d.sync += [ptr.eq(ptr + 1), rptr.eq(rptr + 1)]
+    out = Signal(layout, init=inits[n - 1], name=f"{name}_out")
+    m.d.comb += [wp.en.eq(1), wp.addr.eq(ptr), wp.data.eq(sig), rp.addr.eq(rptr)]
+    m.d.sync += out.eq(rp.data)
+    return out, [out]
 
 
 class ChannelPipeline(wiring.Component):
@@ -138,11 +184,12 @@ class ChannelPipeline(wiring.Component):
 
     @property
     def sum_cycles(self) -> int:
-        """Clocks from the clock that starts a period to the clock in which
-        ``sum`` holds its sum over the slots (the last slot's visit, word,
-        product, gain, slot accumulator)."""
+        """Clocks from the pipeline's period start (``accept``'s clock) to the
+        clock in which ``sum`` holds the period's sum over the slots (the last
+        slot's register read and visit, word, product, gain, slot accumulator)."""
         c = self._c
-        return (c.slots - 1) + VISIT_CYCLES + WORD_CYCLES + c_cmult(c) + GAIN_CYCLES + 1
+        return ((c.slots - 1) + visit_cycles(c.slots) + WORD_CYCLES + CMULT_CYCLES[c.cmult_form]
+                + GAIN_CYCLES + 1)
 
     @property
     def update_stage(self) -> int:
@@ -203,39 +250,62 @@ class ChannelPipeline(wiring.Component):
         back = FIR_LEAD - 1 if fir else 0
         SB = max(1, (M - 1).bit_length())                 # slot bits
 
+        V = visit_cycles(M)
         # ---- the slot schedule: rslot (register read), vslot (visit) --------
-        rslot = Signal(range(max(2, M)), name="rslot")   # 0 in a period's first clock
+        # The period starts (rslot 0) in the clock of ``accept`` (the top's
+        # accepting clock plus ACCEPT_LAG), the first clock after reset.
+        rslot = Signal(range(max(2, M)), init=M - 1, name="rslot")
         if M > 1:
             m.d.sync += rslot.eq(Mux(rslot == M - 1, 0, rslot + 1))
         start = Signal()
         m.d.comb += start.eq(rslot == 0)
-        vslot = _delay(m, rslot, VISIT_CYCLES, "vslot")
-        # The period's step flag and step number, held for its M visits.
+        vslot = _delay(m, rslot, V, "vslot")
+        # The period's step flag and step number, loaded at its start, held
+        # for the period's M visits (V clocks later).
         W = c.window_depth
         count = Signal(range(W))
-        step_v = Signal()
-        nidx_v = Signal(range(W))
+        step_h = Signal()
+        nidx_h = Signal(range(W))
         with m.If(start):
-            m.d.sync += [step_v.eq(self.accept), nidx_v.eq(count)]
+            m.d.sync += [step_h.eq(self.accept), nidx_h.eq(count)]
             with m.If(self.accept):
                 m.d.sync += count.eq(count + 1)
+        step_v = _delay(m, step_h, V - 1, "step_v")
+        nidx_v = _delay(m, nidx_h, V - 1, "nidx_v")
+        offer = _delay(m, self.offer, V, "offer")
 
         # ---- register read: slot rslot's registers, registered ---------------
+        # V = 1: one multiplexer; V = 2: groups of 4 slots by the low bits,
+        # registered, then the group (the select fans out to every bit).
         rl = self.regs[0].shape()
         rsel = Signal(rl, name="rsel")
-        m.d.sync += rsel.eq(Array(self.regs)[rslot] if M > 1 else self.regs[0])
+        if M == 1:
+            m.d.sync += rsel.eq(self.regs[0])
+        elif V == 1:
+            m.d.sync += rsel.eq(Array(self.regs)[rslot])
+        else:
+            groups = []
+            for g in range(0, M, 4):
+                part = Signal(rl, name=f"rsel_g{g // 4}")
+                members = list(self.regs[g:g + 4])
+                m.d.sync += part.eq(Array(members)[rslot[:2]] if len(members) > 1 else members[0])
+                groups.append(part)
+            if len(groups) > 1:
+                m.d.sync += rsel.eq(Array(groups)[_delay(m, rslot[2:], 1, "rslot_hi")])
+            else:
+                m.d.sync += rsel.eq(groups[0])
         for s in range(M):
             m.d.comb += self.cmd_ack[s].eq(rslot == s)
 
         # ---- the state ring --------------------------------------------------
         SL = self._state_layout()
         inits = [self._init_state(si) for si in self._inits]
-        # Ring position j holds at reset the slot that visits j + 1 clocks
-        # later (the head visits slot 0 one clock after reset... see below):
-        # at clock k the head holds slot (k - VISIT_CYCLES) mod M.
+        # Slot 0 visits V clocks after the first period start (clock 1): at
+        # clock k the head holds slot (k - 1 - V) mod M, ring position j (the
+        # head 0, the update's second stage 1, ...) slot (k - 1 - V - j).
         def init_at(j):
-            return inits[(-VISIT_CYCLES - j) % M]
-        head = Signal(SL, init=init_at(0), name="st_head")
+            return inits[(-1 - V - j) % M]
+        head = Signal(SL, name="st_head")          # the ring's last register, below
         present = Const(sum(int(si.present) << k for k, si in enumerate(self._inits)), M)
 
         # Stage A: decisions and candidates from the head's registers.
@@ -286,7 +356,7 @@ class ChannelPipeline(wiring.Component):
         present_v = Signal()
         m.d.comb += present_v.eq(present.bit_select(vslot, 1) if M > 1 else present[0])
         want = (st.ahead < CACHE_FILL_WORDS) & ~st.restart & present_v
-        a["grant"] = self.offer & want
+        a["grant"] = offer & want
         a["fwrap"] = st.f_idx == st.len_m1
         a["f_idx1"] = st.f_idx + 1
         a["f_addr1"] = st.f_addr + 1
@@ -379,18 +449,16 @@ class ChannelPipeline(wiring.Component):
                         with m.Case(k):
                             m.d.comb += getattr(nxt, f"u{k}").eq(mac_val)
 
-        # The ring: head -> [A] -> mid -> [B] -> ... -> head.
-        ring = [Signal(SL, init=init_at(j), name=f"st_ring{j}") for j in range(2, M)]
-        if ring:
-            m.d.sync += ring[0].eq(nxt)
-            for j in range(1, len(ring)):
-                m.d.sync += ring[j].eq(ring[j - 1])
-            m.d.sync += head.eq(ring[-1])
-        else:
-            m.d.sync += head.eq(nxt)
-        #: Every slot's state in the ring (for the formal checks): the head, the
-        #: state part of the update's second stage (M >= 2), the rest.
-        self.ring_states = [head] + ([SL(mid.as_value()[:SL.size])] if M > 1 else []) + ring
+        # The ring: head -> [A] -> mid -> [B] -> ... -> head: from the update's
+        # end back to the head M - 1 clocks (one at M = 1; the head is the last).
+        back = max(1, M - 1)
+        ring_inits = [init_at((j + 2) % M) for j in range(back - 1)] + [init_at(0)]
+        last, regs = _ring_delay(m, nxt, back, ring_inits, "st_ring")
+        m.d.comb += head.eq(last)
+        #: Every slot's state in the ring's registers (for the formal checks):
+        #: the head and the others of a short ring, and the state part of the
+        #: update's second stage (M >= 2).
+        self.ring_states = regs + ([SL(mid.as_value()[:SL.size])] if M > 1 else [])
 
         # Mirrors of pending and bank, per slot, from the completed update.
         bslot = _delay(m, vslot, self.update_stage, "bslot")
@@ -419,67 +487,68 @@ class ChannelPipeline(wiring.Component):
                                     else self.fill_tag.pos)]
             caches.append(mem.read_port(domain="comb"))
 
-        def cache_addr(pos):
-            pos = pos[:POS_BITS]
-            return Cat(pos, vslot[:SB]) if M > 1 else pos
+        def cache_read(port, pos, name):
+            """The cache word at ``pos`` of the visiting slot, the address
+            registered in the visit, the word a clock later in a register."""
+            addr = Signal(len(port.addr), name=f"{name}_addr")
+            m.d.sync += addr.eq(Cat(pos[:POS_BITS], vslot[:SB]) if M > 1 else pos[:POS_BITS])
+            word = Signal(IQ(STREAM_WIDTH), name=name)
+            m.d.comb += port.addr.eq(addr)
+            m.d.sync += word.eq(port.data)
+            return word
 
         # ---- the word: a + round((b - a) * f, 16) -------------------------------
-        wa = Signal(IQ(STREAM_WIDTH), name="word_a")
-        wb = Signal(IQ(STREAM_WIDTH), name="word_b")
-        wf = Signal(INTERP_FRAC_BITS, name="word_f")
+        # The operands two clocks after the visit: the cache's registered
+        # address and word (hold, linear), or the FIR's U values waiting beside.
+        f_op = st.frac[F - PB - INTERP_FRAC_BITS:F - PB] if fir else st.frac[F - INTERP_FRAC_BITS:]
         if fir:
-            m.d.comb += [wa.eq(st.u0), wb.eq(st.u1),
-                         wf.eq(st.frac[F - PB - INTERP_FRAC_BITS:F - PB])]
+            a2 = _delay(m, st.u0, 2, "word_a")
+            b2 = _delay(m, st.u1, 2, "word_b")
         else:
-            m.d.comb += [caches[0].addr.eq(cache_addr(st.cpos)), wa.eq(caches[0].data)]
-            if interp == "linear":
-                m.d.comb += [caches[1].addr.eq(cache_addr(st.cpos + 1)), wb.eq(caches[1].data),
-                             wf.eq(st.frac[F - INTERP_FRAC_BITS:])]
-            else:
-                m.d.comb += [wb.eq(caches[0].data), wf.eq(0)]
-        a1 = Signal.like(wa, name="word_a1"); b1 = Signal.like(wb, name="word_b1")
-        f1 = Signal.like(wf, name="word_f1"); mute1 = Signal(name="word_mute1")
-        m.d.sync += [a1.eq(wa), b1.eq(wb), f1.eq(wf), mute1.eq(mute_out)]
+            a2 = cache_read(caches[0], st.cpos, "word_a")
+            b2 = cache_read(caches[1], st.cpos + 1, "word_b") if interp == "linear" else a2
+        f2 = _delay(m, f_op, 2, "word_f")
+        mute = _delay(m, mute_out, 6, "word_mute")
         word = Signal(IQ(STREAM_WIDTH), name="word")
-        mute = _delay(m, mute1, 3, "word_mute")
         if interp == "hold":
             # the word itself, as late as the interpolated one would be
-            a4 = _delay(m, a1, 3, "word_hold")
-            m.d.sync += word.eq(Mux(mute, 0, a4))
+            m.d.sync += word.eq(Mux(mute, 0, _delay(m, a2, 4, "word_hold")))
         else:
-            f2 = _delay(m, f1, 1, "word_f")
+            f3 = _delay(m, f2, 1, "word_f3")
             for part in ("re", "im"):
                 diff = Signal(signed(STREAM_WIDTH + 1), name=f"word_diff_{part}")
-                a2 = Signal(signed(STREAM_WIDTH), name=f"word_a2_{part}")
-                m.d.sync += [diff.eq(getattr(b1, part) - getattr(a1, part)), a2.eq(getattr(a1, part))]
+                m.d.sync += diff.eq(getattr(b2, part) - getattr(a2, part))
                 mul = RegisteredMultiplier(STREAM_WIDTH + 1, INTERP_FRAC_BITS + 1, input_reg=True)
                 m.submodules[f"lin_mul_{part}"] = mul
-                m.d.comb += [mul.en.eq(1), mul.a.eq(diff), mul.b.eq(f2)]
+                m.d.comb += [mul.en.eq(1), mul.a.eq(diff), mul.b.eq(f3)]
+                # the product again in fabric, next to the adder
+                prod = _delay(m, mul.o, 1, f"word_prod_{part}")
                 # a*2**16 + 2**15: the rounding constant rides with a (in its
                 # zero low bits), so the sum and the rounding are one adder
-                a4 = _delay(m, a2, 2, f"word_a4_{part}")
-                a4r = Cat(Const(1 << (INTERP_FRAC_BITS - 1), INTERP_FRAC_BITS), a4).as_signed()
-                m.d.sync += getattr(word, part).eq(Mux(mute, 0, (a4r + mul.o) >> INTERP_FRAC_BITS))
+                a6 = _delay(m, getattr(a2, part), 4, f"word_a6_{part}")
+                a6r = Cat(Const(1 << (INTERP_FRAC_BITS - 1), INTERP_FRAC_BITS), a6).as_signed()
+                m.d.sync += getattr(word, part).eq(Mux(mute, 0, (a6r + prod) >> INTERP_FRAC_BITS))
 
         # ---- the FIR's serial MAC: one tap per visit of a slot -------------------
         if fir:
-            self._elaborate_mac(m, st, vslot, caches[0], cache_addr, mac_wr, mac_dest, mac_val)
+            self._elaborate_mac(m, st, caches[0], cache_read, mac_wr, mac_dest, mac_val)
 
         # ---- the window: written once per step, read at each slot's tap ---------
+        # A slot's tap is read WORD_CYCLES - latency clocks after its visit, so
+        # that its sample is out with the word. c[n] comes from the common line
+        # 3 clocks after the period start and is written just after the last
+        # read of the step before (a write for step n + 1 never meets a read for
+        # step n at the RAM: tests/formal/replay_formal.py's rule).
         m.submodules.window = win = DelayLine(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG)
         assert win.depth == W
-        wdata = Signal(2 * INPUT_WIDTH, name="win_wdata")
-        wen = Signal(name="win_wen")
-        windex = Signal(range(W), name="win_windex")
-        # c[n] arrives 3 clocks into the period: registered here, written a clock later.
-        m.d.sync += [wdata.eq(self.win_data), wen.eq(_delay(m, start & self.accept, 3, "win_en")),
-                     windex.eq(_delay(m, nidx_v, 2, "win_index"))]
-        m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata)]
-        # The slot's tap, read two clocks after its visit: its sample is out
-        # with the word.
-        m.d.comb += [win.r_index.eq(_delay(m, nidx_v, 2, "win_rindex")),
-                     win.r_delay.eq(_delay(m, rg.tap, 2, "win_rdelay"))]
-        assert 2 + win.latency == WORD_CYCLES
+        read_at = WORD_CYCLES - win.latency
+        write_at = V + read_at + 1                    # clocks after the period start
+        wen = _delay(m, start & self.accept, write_at, "win_wen")
+        wdata = _delay(m, self.win_data, write_at - 3, "win_wdata")
+        windex = _delay(m, nidx_h, write_at - 1, "win_windex")
+        m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
+                     win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex")),
+                     win.r_delay.eq(_delay(m, rg.tap, read_at, "win_rdelay"))]
 
         # ---- complex product, gain, slot accumulator -----------------------------
         m.submodules.cmult = cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
@@ -493,8 +562,9 @@ class ChannelPipeline(wiring.Component):
             mul = RegisteredMultiplier(cm.o_width, len(geff) + 1, input_reg=True)
             m.submodules[f"gain_mul_{part}"] = mul
             m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(cm.o, part)), mul.b.eq(g)]
-            m.d.sync += getattr(q, part).eq((mul.o + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
-        assert 2 + 1 == GAIN_CYCLES
+            prod = _delay(m, mul.o, 1, f"gain_prod_{part}")      # in fabric, next to the adder
+            m.d.sync += getattr(q, part).eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
+        assert 2 + 1 + 1 == GAIN_CYCLES
         qslot = _delay(m, vslot, WORD_CYCLES + cm.latency + GAIN_CYCLES, "qslot")
         first = qslot == 0
         for part in ("re", "im"):
@@ -502,12 +572,13 @@ class ChannelPipeline(wiring.Component):
             m.d.sync += s_.eq(Mux(first, getattr(q, part), s_ + getattr(q, part)))
         return m
 
-    def _elaborate_mac(self, m, st, vslot, cache, cache_addr, mac_wr, mac_dest, mac_val):
+    def _elaborate_mac(self, m, st, cache, cache_read, mac_wr, mac_dest, mac_val):
         """The FIR's multiplier-accumulator: a visiting slot with a job in issue
-        reads its tap's word (cache) and coefficient (ROM); the product is
-        accumulated in a ring of M accumulators (one per slot), rounded and
-        saturated at the job's last tap, and merged into the slot's state
-        ``mac_merge_cycles`` clocks after the visit (``mac_wr`` and friends)."""
+        reads its tap's word (cache) and coefficient (ROM), both through
+        registered addresses; the product (again in fabric) is accumulated in
+        a ring of M accumulators (one per slot), rounded and saturated at the
+        job's last tap, and merged into the slot's state ``mac_merge_cycles``
+        clocks after the visit (``mac_wr`` and friends)."""
         c = self._c
         M = c.slots
         T, PB, W = FIR_TAPS, FIR_PHASE_BITS, STREAM_WIDTH
@@ -521,40 +592,37 @@ class ChannelPipeline(wiring.Component):
         m.submodules.coef_rom = rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=len(rom_init),
                                              init=rom_init, attrs={"rom_style": "logic"})
         rd = rom.read_port(domain="comb")
-        m.d.comb += [rd.addr.eq(Cat(st.tap, st.cphase)), cache.addr.eq(cache_addr(st.rpos))]
+        rom_addr = Signal(len(rd.addr), name="mac_rom_addr")
+        coef = Signal(signed(FIR_COEF_WIDTH), name="mac_coef")
+        m.d.sync += [rom_addr.eq(Cat(st.tap, st.cphase)), coef.eq(rd.data)]
+        m.d.comb += rd.addr.eq(rom_addr)
+        word = cache_read(cache, st.rpos, "mac_word")
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),
                      f0.dest.eq(st.dest)]
-        word = Signal(IQ(W), name="mac_word")
-        coef = Signal(signed(FIR_COEF_WIDTH), name="mac_coef")
-        m.d.sync += [word.eq(cache.data), coef.eq(rd.data)]
-        f3 = _delay(m, f0, 3, "mac_f")                      # with the product
-        f4 = _delay(m, f3, 1, "mac_f4")
-        f5 = _delay(m, f4, 1, "mac_f5")
+        f5 = _delay(m, f0, 5, "mac_f")                      # with the product in fabric
+        resf = _delay(m, f5, 3, "mac_resf")                 # with the result
         res = Signal(IQ(W), name="mac_res")
-        resf = Signal(flags, name="mac_resf")
-        m.d.sync += resf.eq(f5)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
             m.submodules[f"fir_mul_{part}"] = mul
             m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(word, part)), mul.b.eq(coef)]
-            ring = [Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc{j}_{part}") for j in range(M)]
-            new = Mux(f3.valid, Mux(f3.first, mul.o, ring[-1] + mul.o), ring[-1])
-            m.d.sync += ring[0].eq(new)
-            for j in range(1, M):
-                m.d.sync += ring[j].eq(ring[j - 1])
+            prod = _delay(m, mul.o, 1, f"fir_prod_{part}")
+            # one accumulator per slot: this slot's, updated, then round the
+            # ring (M clocks) back to its next tap
+            acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}")
+            prev = acc
+            if M > 1:
+                prev, _ = _ring_delay(m, acc, M - 1, [0] * (M - 1), f"fir_accs_{part}")
+            m.d.sync += acc.eq(Mux(f5.valid, Mux(f5.first, prod, prev + prod), prev))
             rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}")
-            m.d.sync += rounded.eq((ring[0] + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
+            m.d.sync += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
             lo, hi = -(1 << (W - 1)), (1 << (W - 1)) - 1
             m.d.sync += getattr(res, part).eq(Mux(rounded > hi, hi, Mux(rounded < lo, lo, rounded)))
-        assert 1 + 2 + 1 + 1 + 1 == MAC_RESULT_CYCLES
+        # addresses, word, multiplier in and out, product, accumulator, round, saturate
+        assert 2 + 2 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
         pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
         res_d = _delay(m, res, pad, "mac_res")
         resf_d = _delay(m, resf, pad, "mac_resf")
         m.d.comb += [mac_wr.eq(resf_d.valid & resf_d.last), mac_dest.eq(resf_d.dest), mac_val.eq(res_d)]
-
-
-def c_cmult(c):
-    from ..model.fixedpoint import CMULT_CYCLES
-    return CMULT_CYCLES[c.cmult_form]

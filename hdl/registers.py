@@ -68,6 +68,11 @@ class RegisterFile(wiring.Component):
     rmap : RegisterMap
     write_delay, mirror_delay, status_delay : int
         Cycles from a taken access to its landing / sampling points (see above).
+    groups : list of lists of channels, optional
+        Channels whose registers sit together (a pipeline's): each group
+        takes a registered copy of a write's data of its own, so the data
+        does not fan out to every channel. Writes are decoded in the cycle
+        before they land, so ``write_delay`` is at least 1.
 
     Members
     -------
@@ -90,13 +95,18 @@ class RegisterFile(wiring.Component):
         The sticky overflow flag.
     """
 
-    def __init__(self, rmap: RegisterMap, *, write_delay=0, mirror_delay=1, status_delay=1):
+    def __init__(self, rmap: RegisterMap, *, write_delay=1, mirror_delay=1, status_delay=1, groups=None):
         if not isinstance(rmap, RegisterMap):
             raise TypeError(f"Register map must be a RegisterMap, not {rmap!r}")
-        for name, v in (("Write delay", write_delay), ("Mirror delay", mirror_delay),
-                        ("Status delay", status_delay)):
-            if not isinstance(v, int) or isinstance(v, bool) or v < 0:
-                raise ValueError(f"{name} must be a non-negative integer, not {v!r}")
+        N = rmap.contract.channels
+        groups = [list(range(N))] if groups is None else [list(g) for g in groups]
+        if sorted(ch for g in groups for ch in g) != list(range(N)):
+            raise ValueError(f"Groups must hold every channel 0..{N - 1} once, not {groups!r}")
+        self._groups = groups
+        for name, v, least in (("Write delay", write_delay, 1), ("Mirror delay", mirror_delay, 0),
+                               ("Status delay", status_delay, 0)):
+            if not isinstance(v, int) or isinstance(v, bool) or v < least:
+                raise ValueError(f"{name} must be an integer of at least {least}, not {v!r}")
         self._rmap = rmap
         self._write_delay, self._mirror_delay, self._status_delay = write_delay, mirror_delay, status_delay
         c = rmap.contract
@@ -145,10 +155,6 @@ class RegisterFile(wiring.Component):
                      stage[0].addr.eq(bus.addr), stage[0].data.eq(bus.w_data)]
         m.d.sync += [stage[k].eq(stage[k - 1]) for k in range(1, depth + 1)]
 
-        land = stage[self._write_delay]
-        wr = Signal(name="write_lands")
-        m.d.comb += wr.eq(land.valid & land.write)
-
         storage = {}          # (reg name, channel, field name) -> Signal
         for r in rmap.registers:
             for f in r.fields:
@@ -156,40 +162,116 @@ class RegisterFile(wiring.Component):
                     storage[(r.name, r.channel, f.name)] = Signal(
                         f.width, init=f.reset, name=f"{r.name.lower()}{'' if r.channel is None else r.channel}_{f.name}")
 
-        def wsel(r):
-            return wr & (land.addr == r.addr)
+        # The write is decoded before it lands, into registers: per register
+        # a write strobe, per group of channels (and one for the global
+        # registers) a copy of the data and of the clamped field values,
+        # zero unless the write addresses one of the group's registers or
+        # APPLY (so the copies differ in logic and are not merged back into
+        # one by synthesis). Landing is register to register; with two
+        # clocks of staging (M >= 2) the address compares and the clamps'
+        # comparators are a clock earlier still, in ``decoded`` (the
+        # 10-channel build's critical path was op -> compare -> clamp ->
+        # LENGTH).
+        wd = self._write_delay
+        before = stage[wd - 1]
 
-        # Generic rw storage, masked then clamped.
+        def decoded(fn, shape, name):
+            """fn(op) of the access in stage wd - 1: registered from stage wd - 2
+            where there is one."""
+            if wd < 2:
+                return fn(before)
+            s = Signal(shape, name=name)
+            m.d.sync += s.eq(fn(stage[wd - 2]))
+            return s
+
+        def landing(value, shape, name):
+            s = Signal(shape, name=name)
+            m.d.sync += s.eq(value)
+            return s
+
+        def clamp(f):
+            def fn(op):
+                v = op.data[f.lsb:f.lsb + f.width]
+                lo, hi = f.clamp
+                if hi < (1 << f.width) - 1:
+                    v = Mux(v > hi, hi, v)
+                if lo > 0:
+                    v = Mux(v < lo, lo, v)
+                return v
+            return fn
+
+        apply_addr = rmap.reg("APPLY").addr
+        strobe = {}           # register address -> write strobe, landing
+        land_data = {}        # channel (None: global) -> the landing data
+        land_field = {}       # (register address, field name) -> landing value
+        land_apply = {}       # channel (None: global) -> APPLY (bit 0) landing
+        clamped = {}          # field -> its clamped value, one clock before landing
+        units = [(None, [r for r in rmap.registers if r.channel is None])]
+        units += [(g, [r for r in rmap.registers if r.channel in members])
+                  for g, members in enumerate(self._groups)]
+        for g, regs in units:
+            tag = "glob" if g is None else f"g{g}"
+            lo_addr, hi_addr = min(r.addr for r in regs), max(r.addr for r in regs)
+
+            def in_group(op):
+                inside = Const(1)
+                if lo_addr > 0:
+                    inside = inside & (op.addr >= lo_addr)
+                if hi_addr < (1 << len(op.addr)) - 1:
+                    inside = inside & (op.addr <= hi_addr)
+                return op.valid & op.write & (inside | (op.addr == apply_addr))
+            hit = decoded(in_group, 1, f"hit_{tag}")
+            dcopy = landing(Mux(hit, before.data, 0), 32, f"land_data_{tag}")
+            ap = landing(decoded(lambda op: op.valid & op.write & (op.addr == apply_addr) & op.data[0],
+                                 1, f"apply_{tag}"), 1, f"land_apply_{tag}")
+            group_clamped = {}
+            for r in regs:
+                suffix = "" if r.channel is None else str(r.channel)
+                strobe[r.addr] = landing(decoded(lambda op: op.valid & op.write & (op.addr == r.addr),
+                                                 1, f"hit_{r.name.lower()}{suffix}"),
+                                         1, f"w_{r.name.lower()}{suffix}")
+                for f in r.fields:
+                    if f.access != "rw":
+                        continue
+                    if not f.clamp:
+                        land_field[(r.addr, f.name)] = dcopy[f.lsb:f.lsb + f.width]
+                        continue
+                    key = (r.name, f.name)
+                    if key not in clamped:
+                        clamped[key] = decoded(clamp(f), f.width, f"clamp_{r.name.lower()}_{f.name}")
+                    if key not in group_clamped:
+                        group_clamped[key] = landing(Mux(hit, clamped[key], 0), f.width,
+                                                     f"land_{r.name.lower()}_{f.name}_{tag}")
+                    land_field[(r.addr, f.name)] = group_clamped[key]
+            for ch in ([None] if g is None else self._groups[g]):
+                land_data[ch] = dcopy
+                land_apply[ch] = ap
+
+        def wsel(r):
+            return strobe[r.addr]
+
+        # Generic rw storage.
         for r in rmap.registers:
             for f in r.fields:
-                if f.access != "rw":
-                    continue
-                sig = storage[(r.name, r.channel, f.name)]
-                v = land.data[f.lsb:f.lsb + f.width]
-                if f.clamp:
-                    lo, hi = f.clamp
-                    if hi < (1 << f.width) - 1:
-                        v = Mux(v > hi, hi, v)
-                    if lo > 0:
-                        v = Mux(v < lo, lo, v)
-                with m.If(wsel(r)):
-                    m.d.sync += sig.eq(v)
+                if f.access == "rw":
+                    with m.If(wsel(r)):
+                        m.d.sync += storage[(r.name, r.channel, f.name)].eq(land_field[(r.addr, f.name)])
 
         # Per channel: what the engine reads, the applied tap, the command.
-        apply = wsel(rmap.reg("APPLY")) & land.data[0]
         for l in range(N):
             ctrl = rmap.reg("CTRL", l)
             rg = self.regs[l]
             d = rmap.reg("DELAY", l)
+            lnd = land_data[l]
             tap = Signal(rg.tap.shape(), init=d.fields[0].reset, name=f"tap{l}")
-            with m.If(apply):
+            with m.If(land_apply[l]):
                 m.d.sync += tap.eq(storage[("DELAY", l, "delay")])
             # A CTRL write leaves a command for the channel's next visit; the
             # engine consumes it when it reads the channel (cmd_ack).
             with m.If(wsel(ctrl)):
                 m.d.sync += [rg.cmd_valid.eq(1),
-                             rg.cmd_enable.eq(land.data[ctrl.field("enable").lsb]),
-                             rg.cmd_swap.eq(land.data[ctrl.field("swap").lsb])]
+                             rg.cmd_enable.eq(lnd[ctrl.field("enable").lsb]),
+                             rg.cmd_swap.eq(lnd[ctrl.field("swap").lsb])]
             with m.Elif(self.cmd_ack[l]):
                 m.d.sync += rg.cmd_valid.eq(0)
             m.d.comb += [
@@ -203,7 +285,7 @@ class RegisterFile(wiring.Component):
 
         common = rmap.reg("COMMON_DELAY")
         applied = Signal(self._cw, init=common.fields[0].reset, name="common_delay_applied")
-        with m.If(apply):
+        with m.If(land_apply[None]):
             m.d.sync += applied.eq(storage[("COMMON_DELAY", None, "delay")])
         m.d.comb += self.common_delay.eq(applied)
 
@@ -212,7 +294,7 @@ class RegisterFile(wiring.Component):
         data_w = wsel(rmap.reg("STREAM_DATA"))
         m.d.sync += self.wr_en.eq(data_w)
         with m.If(data_w):
-            m.d.sync += [self.wr_addr.eq(addr), self.wr_data.eq(land.data), addr.eq(addr + 1)]
+            m.d.sync += [self.wr_addr.eq(addr), self.wr_data.eq(land_data[None]), addr.eq(addr + 1)]
 
         # Sticky overflow: a read of STATUS samples it at status_delay and
         # clears what it reported (a saturation in that cycle stays set).

@@ -10,8 +10,8 @@ from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
 from .registers import BusSignature, RegisterFile, channel_regs_layout
-from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG,
-                                POOL_FETCH_CYCLES, write_staging, tree_levels)
+from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
+                                POOL_FETCH_CYCLES, write_staging, tree_levels, visit_cycles)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
 
@@ -149,39 +149,59 @@ class WindFarmReplay(wiring.Component):
         in_flight = Signal(range(F + 1))
         accept = Signal()
         out_taken = Signal()
-        m.d.comb += [self.i.ready.eq(start & (in_flight < F)),
-                     accept.eq(self.i.valid & self.i.ready),
+        # i.ready from a register (it fans out to every pipeline through
+        # ``accept``): high in the period's first clock when the FIFO has
+        # room for every sample in flight, counted the clock before.
+        ready = Signal()
+        next_start = (slot == M - 1) if M > 1 else 1
+        m.d.sync += [ready.eq(next_start & (in_flight + accept - out_taken < F)),
+                     in_flight.eq(in_flight + accept - out_taken)]
+        m.d.comb += [self.i.ready.eq(ready), accept.eq(self.i.valid & ready),
                      out_taken.eq(self.o.valid & self.o.ready)]
-        m.d.sync += in_flight.eq(in_flight + accept - out_taken)
 
         # ---- registers ---------------------------------------------------------
-        status_delay = K + 1 + Sw
-        m.submodules.regs = regs = RegisterFile(self._rmap, write_delay=Sw,
-                                                mirror_delay=2 + b0 + Sw, status_delay=status_delay)
+        # Writes land in the clock before the pipelines' period start (the
+        # accepting clock, top slot 0): taken write_staging clocks earlier. A
+        # read samples the slots' mirrors after the last slot's update of the
+        # step before (the update's end V + b0 after its visit), the sticky
+        # overflow after that step's saturation.
+        V = visit_cycles(M)
+        m.submodules.regs = regs = RegisterFile(
+            self._rmap, write_delay=Sw, mirror_delay=V + b0 + 1 + Sw, status_delay=K + Sw,
+            groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)])
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
-        m.d.comb += [self.overflow.eq(regs.overflow), regs.take.eq(slot == (M - 1 - Sw) % M)]
+        # ``take`` (the bus's ready) from a register: it reaches the host bridge's
+        # control, and decoded from the slot counter it was the 10-channel
+        # build's critical path (slot -> ready -> bridge, 7.7 ns).
+        take_slot = (M - Sw) % M
+        take = Signal(init=take_slot == 0)
+        if M > 1:
+            m.d.sync += take.eq(slot == (take_slot - 1) % M)
+        m.d.comb += [self.overflow.eq(regs.overflow), regs.take.eq(take)]
 
         # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
-        # Written with x[n] in the period's second clock, read (address in its
-        # first clock) so that c[n] is out three clocks after the period starts.
+        # The pipelines' period starts ACCEPT_LAG clocks after the accepting one:
+        # then x[n] is written and the read for step n asked, so that c[n] is
+        # out three clocks after the period start.
         m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
-        assert common.depth == c.common_depth and common.latency == 3
+        assert common.depth == c.common_depth and common.latency == 3 and ACCEPT_LAG == 1
         cnt = Signal(range(c.common_depth))
         x_q = Signal(2 * INPUT_WIDTH)
         w_en = Signal()
-        w_index = Signal.like(cnt)
-        m.d.sync += [x_q.eq(self.i.payload.as_value()), w_en.eq(accept), w_index.eq(cnt)]
+        n_q = Signal.like(cnt)
+        m.d.sync += [x_q.eq(self.i.payload.as_value()), w_en.eq(accept), n_q.eq(cnt)]
         with m.If(accept):
             m.d.sync += cnt.eq(cnt + 1)
-        m.d.comb += [common.w_en.eq(w_en), common.w_index.eq(w_index), common.w_data.eq(x_q),
-                     common.r_index.eq(cnt), common.r_delay.eq(regs.common_delay)]
+        m.d.comb += [common.w_en.eq(w_en), common.w_index.eq(n_q), common.w_data.eq(x_q),
+                     common.r_index.eq(n_q), common.r_delay.eq(regs.common_delay)]
 
         # ---- the pool and the fetch scan -----------------------------------------
         ptag = fetch_tag_layout(M)
         pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
         m.submodules.pool = pool = StreamPool(c.pool_words, pool_tag.size, init=self._pool_init)
         m.d.comb += [pool.w_en.eq(regs.wr_en), pool.w_addr.eq(regs.wr_addr), pool.w_data.eq(regs.wr_data)]
-        # One pipeline's slots are offered a fetch per period, pipelines in turn.
+        # One pipeline's slots are offered a fetch per period, pipelines in turn
+        # (from the pipelines' period start).
         scan = Signal(P, init=1)
         with m.If(start):
             m.d.sync += scan.eq(scan.rotate_left(1))
@@ -204,7 +224,10 @@ class WindFarmReplay(wiring.Component):
             pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout)
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)
-            m.d.comb += [pl.accept.eq(accept), pl.win_data.eq(common.o), pl.offer.eq(scan[p])]
+            # a registered copy of the accept strobe for each pipeline
+            acc_p = Signal(name=f"accept{p}")
+            m.d.sync += acc_p.eq(accept)
+            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(scan[p])]
             for s in range(M):
                 ch = p * M + s
                 if ch < N:
@@ -226,7 +249,7 @@ class WindFarmReplay(wiring.Component):
         m.d.sync += [req_valid.eq(rv), req_addr.eq(ra), req_tag.eq(rt)]
 
         # ---- the sum over the pipelines, saturation, the output FIFO --------------
-        assert pipes[0].sum_cycles + tree_levels(P) + 2 == K
+        assert ACCEPT_LAG + pipes[0].sum_cycles + tree_levels(P) + 2 == K
         level = [pl.sum for pl in pipes]
         SW = c.sum_width
         depth = 0

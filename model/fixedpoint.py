@@ -92,7 +92,7 @@ def unpack_iq(words, width=STREAM_WIDTH):
 
 import math as _math
 
-__all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "VISIT_CYCLES", "WORD_CYCLES",
+__all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "ACCEPT_LAG", "visit_cycles", "WORD_CYCLES",
             "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "write_staging",
             "tree_levels", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
@@ -211,7 +211,7 @@ CACHE_FILL_WORDS = CACHE_WORDS - CACHE_GUARD_WORDS
 #: Fabric clocks from the scan granting a fetch to the word readable in the
 #: cache, at most (the gateware checks its own path against it:
 #: ``rast.hdl.replay_top``).
-POOL_FETCH_CYCLES = 16
+POOL_FETCH_CYCLES = 20
 #: Words of one pool bank (on ECP5: 32 DP16KD of 16384 x 1; deeper pools are
 #: banks behind a registered multiplexer).
 POOL_BANK_WORDS = 16384
@@ -271,14 +271,16 @@ def fir_coefficients() -> tuple[tuple[int, ...], ...]:
 # output n takes to leave the block (``engine_output_cycles``) are not seen
 # in the step count, only on a board (``board_latency``).
 #
+# The pipelines run one clock behind the accepting clock (ACCEPT_LAG: they
+# take a registered copy of the accept strobe), from O'(j) = O(j) + 1.
 # Channel c = p*M + s is served by pipeline p in slot s: the channel's
-# registers are read (multiplexed by slot, registered) at O(j) + s, and its
-# state, kept in a ring of M registers per pipeline, is at the ring's head
-# at O(j) + s + VISIT_CYCLES, where it is updated (in one stage at M = 1, in
-# two at M >= 2) and its word, tap, product and gain follow a fixed pipeline.
-# Host writes land in the last clock of a period (they are taken from the
-# bus WRITE_STAGING(M) clocks earlier, ``rast.hdl.registers``), so a write
-# between steps n-1 and n is seen by every channel from step n on.
+# registers are read (multiplexed by slot, registered) from O'(j) + s, and
+# its state, kept in a ring of M positions per pipeline, is at the ring's
+# head at O'(j) + s + visit_cycles(M), where it is updated (in one stage at
+# M = 1, in two at M >= 2) and its word, tap, product and gain follow a
+# fixed pipeline. Host writes land in the clock before O'(j) (they are taken
+# from the bus write_staging(M) clocks earlier, ``rast.hdl.registers``), so a
+# write between steps n-1 and n is seen by every channel from step n on.
 # ---------------------------------------------------------------------------
 
 #: Common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY].
@@ -288,28 +290,38 @@ WINDOW_LAG = 1
 #: The block's latency L in samples (steps): an echo of channel l appears
 #: ``L + COMMON_DELAY + DELAY[l]`` samples after its input.
 BLOCK_LATENCY = COMMON_LAG + WINDOW_LAG
-#: Clocks from a slot's register read (period start + slot) to its visit.
-VISIT_CYCLES = 1
-#: Clocks from the visit to the stream word in its register (operands, the
-#: difference, the multiplier's input and output registers, the sum).
-WORD_CYCLES = 5
+#: Clocks from the accepting clock to the pipelines' period start O'.
+ACCEPT_LAG = 1
+#: Clocks from the visit to the stream word in its register: the cache's
+#: registered address (hold, linear; the FIR's U values wait beside it), the
+#: operands, the difference, the multiplier's input and output registers, the
+#: product in fabric, the sum.
+WORD_CYCLES = 7
 #: Clocks from the operands to the rounded complex product, per form: the
 #: multipliers' input and output registers, the products in fabric, the
 #: difference/sum, the rounding (3mult: one more for the pre-additions).
 CMULT_CYCLES = {"4mult": 5, "3mult": 6}
 #: Clocks from the rounded product to the rounded gain product (the
-#: multiplier's input and output registers, the rounding).
-GAIN_CYCLES = 3
-#: Clocks from the visit to the FIR MAC's rounded, saturated U value (cache and
-#: coefficient read, multiplier in and out, accumulate, round, saturate).
-MAC_RESULT_CYCLES = 6
+#: multiplier's input and output registers, the product in fabric, the rounding).
+GAIN_CYCLES = 4
+#: Clocks from the visit to the FIR MAC's rounded, saturated U value (the
+#: cache's and the coefficient ROM's registered addresses, word and
+#: coefficient, multiplier in and out, the product in fabric, accumulate,
+#: round, saturate).
+MAC_RESULT_CYCLES = 8
+
+
+def visit_cycles(slots: int) -> int:
+    """Clocks from a slot's register read to its visit: the slot multiplexer
+    in one registered stage (M <= 2), or two (a 4:1 stage, then the groups)."""
+    return 1 if slots <= 2 else 2
 
 
 def write_staging(slots: int) -> int:
     """Clocks between a host write taken from the bus and the clock in which
-    it lands (the last clock of a period): 0 at M = 1, else up to 2 (the
-    decode is registered)."""
-    return min(2, slots - 1)
+    it lands (the one before the pipelines' period start): 1 at M = 1, else 2
+    (the copies per pipeline are registered, then the decode)."""
+    return min(2, slots)
 
 
 def tree_levels(pipelines: int) -> int:
@@ -336,10 +348,10 @@ def mac_visits(slots: int) -> int:
 def engine_output_cycles(slots: int, pipelines: int, cmult_form: str = "4mult") -> int:
     """Clocks from the clock that accepts input n to the clock in which output
     n is in the saturation register (it enters the output FIFO at the next
-    edge): the last slot's visit, word, complex product, gain, slot
-    accumulator, adder tree, saturation flags and clip."""
-    return ((slots - 1) + VISIT_CYCLES + WORD_CYCLES + CMULT_CYCLES[cmult_form] + GAIN_CYCLES
-            + 1 + tree_levels(pipelines) + 2)
+    edge): the pipelines' period start, the last slot's visit, word, complex
+    product, gain, slot accumulator, adder tree, saturation flags and clip."""
+    return (ACCEPT_LAG + (slots - 1) + visit_cycles(slots) + WORD_CYCLES + CMULT_CYCLES[cmult_form]
+            + GAIN_CYCLES + 1 + tree_levels(pipelines) + 2)
 
 
 CMULT_FORMS = ("4mult", "3mult")

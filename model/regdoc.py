@@ -35,15 +35,21 @@ host helpers are built from. Widths shown for the contract's defaults
 max tap {c.max_tap}); widths of LENGTH, BASE, DELAY and STREAM_ADDR
 follow the elaboration parameters.
 
-Bus (`rast.hdl.registers.BusSignature`): word addresses, 32-bit data, one
-access per cycle; `w_stb` writes `w_data` to `addr`; `r_stb` reads `addr`,
-`r_data` is valid the next cycle. Unused addresses read 0. Written values are
-masked to the field width, then clamped into the field's range where one is
-given (LENGTH 1..pool words, DELAY 0..max).
+Bus (`rast.hdl.registers.BusSignature`): word addresses, 32-bit data; `w_stb`
+writes `w_data` to `addr`, `r_stb` reads `addr`, held until the block takes
+the access in a cycle with `ready` high (once per period of M fabric clocks);
+a read's answer is on `r_data` in the cycle `r_valid` is high, a fixed number
+of cycles later. Unused addresses read 0. Written values are masked to the
+field width, then clamped into the field's range where one is given (LENGTH
+1..pool words, DELAY 0..max).
 
-Timing: a write takes effect from the next accepted input sample on (a write
-in the same clock cycle as an input transfer counts as after it). Status bits
-(CTRL.swap/bank, STATUS.overflow) read the state after this cycle's sample.
+Timing: a write taken between input samples k − 1 and k (a write taken in
+the clock cycle of an input transfer counts as after it) takes effect from
+step k on for every channel, whatever its slot (it lands in the clock before
+the pipelines' period start, `write_staging(M)` clocks after it was taken;
+`docs/fixed_point.md`); a GAIN or enable change shows from output k.
+Reads return the state between the same two steps: the stored values, the
+channels' CTRL.swap/bank and the sticky STATUS.overflow.
 
 {markdown(register_map(c))}
 Channel l (0..N-1) has its block at `{CHANNEL_BASE:#x} + {CHANNEL_STRIDE}*l`.

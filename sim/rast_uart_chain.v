@@ -4,7 +4,8 @@
 // From files in the working directory:
 //   cfg.hex  n_rx, n_src, divisor, n_steps, capture_from (one 64-bit hex word each)
 //   rx.hex   the host's bytes: bits 7..0 the byte, bits 31..8 idle bit times before it
-//   src.hex  input samples (I low), repeated, one per clock (valid always 1, as from an ADC)
+//   src.hex  input samples (I low), repeated, one per period of the block (valid always 1, as
+//            from an ADC: the block takes one in a period's first clock)
 // it writes:
 //   tx.txt      every byte the bridge sends, hex, one per line
 //   writes.txt  every register write on the bus: "step addr data" (hex), the step
@@ -58,10 +59,10 @@ module rast_uart_chain;
         #21 rst = 1'b0;
     end
 
-    // The samples: one per clock; a bus write in the clock of a transfer
-    // takes effect from the next sample.
+    // The samples: one per transfer; a bus write taken (w_stb and ready) in
+    // the clock of a transfer takes effect from the next sample.
     always @(posedge clk) if (!rst) begin
-        if (dut.bus__w_stb)
+        if (dut.bus__w_stb && dut.bus__ready)
             $fwrite(fw, "%h %h %h\n", step + (i_ready ? 1 : 0), dut.bus__addr, dut.bus__w_data);
         if (i_ready) begin
             step <= step + 1;

@@ -39,9 +39,9 @@ class DocReader:
         if s < 0:
             return 0, 0
         # muted (phase held at 0) while the caches fill after reset: the
-        # restart, 13 words per channel, one scan of P periods each, 16 clocks
+        # restart, 13 words per channel, one scan of P periods each, 20 clocks
         # more, one to spare; the FIR 48 more
-        mute = 1 + 13 * self.P + -(-16 // self.M) + 1 + (48 if self.interp == "fir" else 0)
+        mute = 1 + 13 * self.P + -(-20 // self.M) + 1 + (48 if self.interp == "fir" else 0)
         if s < mute:
             return 0, 0
         s -= mute

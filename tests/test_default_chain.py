@@ -44,8 +44,9 @@ def test_default_example_loads_into_the_default_bitstream(tmp_path):
     regions = [(m.base_act[ch], n) for ch, n in enumerate(lengths)]
     free_region(regions, max(lengths), contract.pool_words)
 
-    # The streams play: after the refill, every channel's echo of a constant input is nonzero.
-    n = contract.refill_samples + contract.latency + 4096
+    # The streams play: after the refill and the farthest echo's delay, every
+    # channel's echo of a constant input is nonzero.
+    n = contract.refill_samples + max(w["delay_samples"] for w in manifest["windmills"]) + 4096
     yi, yq = m.run(np.full(n, 8000), np.zeros(n, dtype=np.int64))
     assert np.count_nonzero(yi[-4096:]) > 4000
 
@@ -64,7 +65,10 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
 
     out = tmp_path / "out"
     assert main(["stream", str(ROOT / _make_default("EXAMPLE")), "--out", str(out)]) == 0
-    cfg = BuildConfig()
+    # The bitstream's build with one pipeline's channels (10 of its 64: the
+    # example plays 2, and 64 would be seven times the simulation)
+    import dataclasses
+    cfg = dataclasses.replace(BuildConfig(), channels=BuildConfig().slots)
     report = build(cfg, tmp_path / "bit", quiet=True, run_tools=False)
     contract = ReplayContract.from_dict(report["build"])
     # The bitstream's replay system, its UART at the bridge's fastest divisor (4 clocks per bit).
