@@ -67,6 +67,25 @@ def _print_synthesis(farm_streams) -> None:
             print(f"{s.windmill.name}: evaluated directly: {syn.reason}")
 
 
+def _default_build_fit(farm_streams) -> str:
+    """Whether the streams load into the default bitstream (``make bitstream``),
+    or the first thing that does not fit."""
+    import dataclasses
+    from rast.gateware.build import BuildConfig
+    from rast.model.loadplan import manifest_to_register_writes, pool_layout
+    cfg = BuildConfig()
+    c = dataclasses.replace(cfg.contract(), sample_rate_hz=round(cfg.sample_rate_mhz * 1e6))
+    what = (f"the default bitstream ({c.channels} channels, {cfg.sample_rate_mhz:g} MS/s, a stream pool "
+            f"of {c.pool_words} words, common delay {c.max_delay} + window {c.max_tap} samples)")
+    manifest = farm_streams.manifest()
+    try:
+        manifest_to_register_writes(manifest, c, target="board")
+        pool_layout([ch["length"] for ch in manifest["registers"]["channels"]], c.pool_words)
+    except ValueError as error:
+        return f"does not fit {what}: {error}"
+    return f"fits {what}"
+
+
 def cmd_stream(args) -> int:
     from rast.errors import read_build
     from rast.model.ramfiles import make_farm_files
@@ -104,6 +123,8 @@ def cmd_stream(args) -> int:
               f"{need.pool_words} words, common delay {need.max_delay}, delay window "
               f"{need.max_tap}, {need.interpolation} interpolation, {farm.sample_rate_mhz:g} MHz"
               + (f"; sized for {args.build}" if contract is not None else ""))
+        if contract is None:
+            print(_default_build_fit(farm_streams))
     print(f"wrote {len(written)} files to {Path(args.out).resolve()}:")
     for name in sorted(written):
         print(f"  {written[name]}")

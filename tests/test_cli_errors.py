@@ -293,12 +293,15 @@ def no_build(monkeypatch):
 
 
 @pytest.mark.parametrize("args, needles", [
-    (["--channels", "16", "--pool-words", "16384"], ["16 channels", "160 MULT18X18D", "the LFE5U-85F has 156"]),
+    (["--channels", "160", "--pool-words", "16384", "--max-tap", "510"],
+     ["160 channels (16 pipelines of 10 slots)", "need 160 MULT18X18D", "the LFE5U-85F has 156"]),
     (["--pool-words", "98304"], ["98304-word stream pool", "DP16KD block RAMs", "the LFE5U-85F has 208"]),
-    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 148 DP16KD", "the LFE5U-25F has 56"]),
+    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 180 DP16KD", "the LFE5U-25F has 56"]),
     (["--clock-mhz", "1000"], ["PLL output frequency must be in", "not 1000.0"]),
     (["--clock-mhz", "0"], ["Clock must be a positive number of MHz"]),
-    (["--baud", "50000000"], ["Baud rate 50000000 is too fast"]),
+    (["--clock-mhz", "210"], ["Clock 210 MHz must be a whole multiple of the sample rate 20 MHz"]),
+    (["--sample-rate-mhz", "-20"], ["Sample rate must be a positive number of MHz"]),
+    (["--baud", "60000000"], ["Baud rate 60000000 is too fast"]),
     (["--pool-words", "1000"], ["Pool words must be a power of two from 16 to 16384", "not 1000"]),
     (["--channels", "0"], ["Channel count must be a positive integer, not 0"]),
     (["--board", "none"], ["--board none needs --device"]),

@@ -106,3 +106,14 @@ def test_contract_description_round_trips():
     # fetch every 4th period); the fabric runs at 2 x the sample rate
     assert d["pipelines"] == 4 and d["max_phase_increment"] == (2**32 - 1) // 4
     assert d["latency_samples"] == 2 and d["clock_hz"] == 24_691_356
+
+
+def test_stream_says_whether_it_fits_the_default_bitstream(tmp_path, capsys):
+    """Without --build, `rast stream` says whether the streams load into the
+    default bitstream, and names what does not fit."""
+    assert main(["stream", str(ROOT / "examples" / "farm_atc_sband.toml"), "--out", str(tmp_path / "a")]) == 0
+    out = capsys.readouterr().out
+    assert "fits the default bitstream (64 channels, 20 MS/s, a stream pool of 81920 words" in out
+    assert main(["stream", str(ROOT / "examples" / "farm_layout.toml"), "--out", str(tmp_path / "b")]) == 0
+    out = capsys.readouterr().out
+    assert "does not fit the default bitstream" in out and "but the stream pool holds 81920" in out
