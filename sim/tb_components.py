@@ -12,10 +12,8 @@ import cocotb
 import numpy as np
 
 from rast.model import datapath as dp
-from rast.model.fixedpoint import PHASE_FRAC_BITS, INTERP_FRAC_BITS, unpack_iq
-from rast.sim.testbench import X_VALUE, Scoreboard, StepBench, params
+from rast.sim.testbench import X_VALUE, Scoreboard, StepBench, params, stall_pattern
 
-ONE = 1 << PHASE_FRAC_BITS
 
 
 def _signed(v, width):
@@ -111,149 +109,46 @@ def delay_schedule(n: int, max_delay: int, seed: int):
 
 @cocotb.test()
 async def delay_line(dut):
+    """The step-indexed line as the engine drives it: a step (where the stall
+    pattern allows) writes x[k] at index k and asks for step k at the delay
+    of the schedule in the same clock; in other clocks nothing is written and
+    the read repeats. The answer for step k is ``o`` ``latency`` clocks
+    later: x[k - lag - d[k]], zero before step 0."""
+    from cocotb.clock import Clock
+    from cocotb.triggers import ClockCycles, FallingEdge, ReadOnly
     p = params()
-    width, max_delay = p["width"], p["max_delay"]
+    width, max_delay, lag, depth, lat = p["width"], p["max_delay"], p["lag"], p["depth"], p["latency"]
     d = delay_schedule(p["n"], max_delay, p["seed"])
     rng = np.random.default_rng(p["seed"] + 1)
     x = rng.integers(0, 1 << width, size=d.size, dtype=np.int64)
-    exp = dp.delay_line(x, d)
-    bench = StepBench(dut, en_pattern=p["en_pattern"], seed=p["seed"])
-    await bench.start(idle={"i": 0, "delay": 0})
-    obs, times = await bench.steps([{"i": int(a), "delay": int(b)} for a, b in zip(x, d)], ("o",))
-    got = np.array([s["o"] for s in obs], dtype=np.int64)
+    exp = dp.delay_line(x, d, lag)
+    en = stall_pattern(p["en_pattern"], p["seed"])
+    Clock(dut.clk, 10, unit="ns").start()
+    dut.rst.value = 1
+    for name in ("w_en", "w_index", "w_data", "r_index", "r_delay"):
+        getattr(dut, name).value = 0
+    await ClockCycles(dut.clk, 3)
+    await FallingEdge(dut.clk)
+    dut.rst.value = 0
+    asked = {}                   # clock -> step asked in it
+    got = np.full(d.size, X_VALUE, dtype=np.int64)
+    k = clock = 0
+    while k < d.size or clock - lat <= max(asked):
+        await FallingEdge(dut.clk)
+        step = k < d.size and next(en, True)
+        dut.w_en.value = int(step)
+        if step:
+            dut.w_index.value = dut.r_index.value = k % depth
+            dut.w_data.value = int(x[k])
+            dut.r_delay.value = int(d[k])
+            asked[clock] = k
+            k += 1
+        await ReadOnly()
+        if clock - lat in asked:
+            v = dut.o.value
+            got[asked[clock - lat]] = int(v) if v.is_resolvable else X_VALUE
+        clock += 1
 
     def ctx(step):
-        return f"delay[{step - 3}]={d[step - 3] if step >= 3 else None}"
-    Scoreboard(f"delay_line[max {max_delay}]", context=ctx).check({"o": (got, exp)}, times_ns=times)
-
-
-# ---------------------------------------------------------------------------
-# Stream replay
-
-class StreamRef:
-    """Step model of the stream replay state (the rule in its docstring): the
-    stream is ``length`` pool words from ``base``; after reset and every
-    switch the phase is held at 0 and the word is 0 for ``refill`` steps."""
-
-    def __init__(self, pool_words, refill):
-        self.pool = np.zeros(pool_words, dtype=np.int64)
-        self.refill_samples = refill
-        self.refill = refill
-        self.bank = 0
-        self.base = 0
-        self.idx = 0
-        self.frac = 0
-        self.length = 1
-        self.inc = 0
-        self.pending = 0
-
-    def switch(self, base, length, inc):
-        self.bank ^= 1
-        self.base, self.length, self.inc = base, length, inc
-        self.idx = self.frac = 0
-        self.pending = 0
-        self.refill = self.refill_samples
-
-    def step(self, next_base, next_length, next_inc):
-        if self.refill:
-            self.refill -= 1
-            return
-        acc = self.frac + self.inc
-        carry = acc >> PHASE_FRAC_BITS
-        wrap = carry and self.idx == self.length - 1
-        if self.pending and wrap:
-            self.switch(next_base, next_length, next_inc)
-        elif wrap:
-            self.idx, self.frac = 0, acc & (ONE - 1)
-        else:
-            self.idx, self.frac = self.idx + carry, acc & (ONE - 1)
-
-    def word(self, interpolation):
-        if self.refill:
-            return 0, 0
-        b = self.pool[self.base:self.base + self.length]
-        wi, wq = unpack_iq(b[self.idx])
-        if interpolation == "hold":
-            return int(wi), int(wq)
-        j = 0 if self.idx + 1 == self.length else self.idx + 1
-        w1i, w1q = unpack_iq(b[j])
-        return (int(dp.interpolate_words(wi, w1i, self.frac)),
-                int(dp.interpolate_words(wq, w1q, self.frac)))
-
-
-@cocotb.test()
-async def stream_replay(dut):
-    p = params()
-    depth, interp, lat = p["depth"], p["interpolation"], p["latency"]
-    rng = np.random.default_rng(p["seed"])
-    ref = StreamRef(depth, p["refill"])
-    bench = StepBench(dut, en_pattern=p["en_pattern"], seed=p["seed"])
-    idle = {"base": 0, "length": 1, "increment": 0, "swap_req": 0, "swap_force": 0, "wr_en": 0,
-            "wr_addr": 0, "wr_data": 0}
-    await bench.start(idle=idle)
-
-    async def control(**kw):           # one cycle with en = 0
-        await bench.cycle_with({**idle, **kw}, (), 0)
-
-    async def load(base, words):
-        for a, w in enumerate(words):
-            await control(wr_en=1, wr_addr=base + a, wr_data=int(w))
-            ref.pool[base + a] = int(w)
-
-    def random_words(n):
-        # include the extreme words so interpolation differences reach 2**16 - 1
-        w = rng.integers(0, 1 << 32, size=n, dtype=np.int64)
-        w[0] = 0x8000_7FFF
-        if n > 1:
-            w[1] = 0x7FFF_8000
-        return w
-
-    got, exp, times, phases = [], [], [], []
-    state_hist = []
-    rtl_state = []
-
-    async def run(n, base, length, inc):
-        nonlocal got
-        obs, t = await bench.steps([{**idle, "base": base, "length": length, "increment": inc}] * n,
-                                   ("o", "index", "bank", "active_length"))
-        for s in obs:
-            rtl_state.append((s["bank"], s["index"], s["active_length"]))
-            state_hist.append(ref.word(interp))
-            phases.append((ref.bank, ref.idx, ref.frac))
-            ref.step(base, length, inc)
-            got.append(s["o"])
-        times.extend(t)
-
-    # 1: a stream at the pool's start forced active, a length that is not a
-    #    power of two, a rate that does not divide 2**32 (wrap with a carried fraction)
-    L1 = int(p["length1"])
-    inc1 = int(p["inc1"])
-    B2 = depth // 2
-    await load(0, random_words(L1))
-    await control(base=0, length=L1, increment=inc1, swap_force=1)
-    ref.switch(0, L1, inc1)
-    await run(p["n1"], 0, L1, inc1)
-    # 2: new words into the pool's second half, new length/rate, switch at the period boundary
-    L2 = int(p["length2"])
-    inc2 = int(p["inc2"])
-    await load(B2, random_words(L2))
-    await control(base=B2, length=L2, increment=inc2, swap_req=1)
-    ref.pending = 1
-    await run(p["n2"], B2, L2, inc2)
-    assert ref.bank == 0, "the test never reached the period boundary that switches streams"
-    # o during step n is the word of the state of step n - latency; the first
-    # `lat` steps of each run show the previous word and are checked from the
-    # continuous sequence (states recorded across control cycles).
-    hist = np.array(state_hist, dtype=np.int64)
-    o = np.array(got, dtype=np.int64)
-    gi, gq = _iq(o, 16)
-    ei, eq = hist[:-lat, 0], hist[:-lat, 1]
-
-    def ctx(step):
-        b, i, f = phases[step - lat]
-        rb, ri, rl = rtl_state[step - lat]
-        return (f"model state {lat} steps earlier: bank {b} index {i} frac 0x{f:08x}; "
-                f"RTL then: bank {rb} index {ri} length {rl}")
-    Scoreboard(f"stream_replay[{interp}]", context=ctx).check(
-        {"I": (gi[lat:], ei), "Q": (gq[lat:], eq)},
-        times_ns=np.array(times)[lat:], index=np.arange(lat, o.size))
+        return f"x[{step}] read at delay {d[step]}"
+    Scoreboard(f"delay_line[max {max_delay}, lag {lag}]", context=ctx).check({"o": (got, exp)})

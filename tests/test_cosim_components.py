@@ -1,4 +1,6 @@
-"""Cosimulation of the replay block's components: generated Verilog vs the bit-exact model.
+"""Cosimulation of the replay block's components (the complex multiplier, the
+delay line): generated Verilog vs the bit-exact model. The stream replay is
+the engine's pipeline and is cosimulated in the top (tests/test_cosim_top.py).
 
 Each test builds (once, cached) the component's Verilog, runs a cocotb
 testbench of ``sim/tb_components.py`` and compares every output as an integer.
@@ -8,8 +10,6 @@ import pytest
 
 from rast.hdl.cmult import ComplexMultiplier
 from rast.hdl.delay_line import DelayLine
-from rast.model.fixedpoint import stream_latency
-from rast.sim.pooled_stream import PooledStream
 from rast.sim.pytest_support import SIMULATOR_PARAMS, cocotb_run, verilog_of
 
 MODULE = "rast.sim.tb_components"
@@ -27,40 +27,14 @@ def test_cmult(simulator, form, en_pattern):
 
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
-# max_delay=0 is left out: its port `delay` is 0 bits wide and Amaranth writes
-# `input [-1:0] delay`, which Verilator rejects (ASCRANGE); see the report.
-@pytest.mark.parametrize("max_delay", [1, 6])   # RAM depth 4 with slack; depth 8 = max + 2 exactly
+# max_delay=0 is left out: its port `r_delay` is 0 bits wide and Amaranth writes
+# `input [-1:0] r_delay`, which Verilator rejects (ASCRANGE).
+@pytest.mark.parametrize("max_delay, lag", [(1, 1), (6, 1), (6, 2)])   # RAM depth 4, 8 (= max + 2), 8
 @pytest.mark.parametrize("en_pattern", ["none", "10", "random"])
-def test_delay_line(simulator, max_delay, en_pattern):
-    dut = DelayLine(32, max_delay)
+def test_delay_line(simulator, max_delay, lag, en_pattern):
+    dut = DelayLine(32, max_delay, lag)
     cocotb_run({"delay_line.v": verilog_of(dut, "delay_line")}, "delay_line", MODULE, "delay_line",
-               simulator=simulator, name=f"delay-{max_delay}-{en_pattern}",
-               label=f"delay_line{max_delay}",
-               tb_params=dict(width=32, max_delay=max_delay, n=900, seed=5 + max_delay,
-                              en_pattern=en_pattern))
-
-
-@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
-@pytest.mark.parametrize("interpolation", ["hold", "linear"])
-@pytest.mark.parametrize("en_pattern", ["none", "1000", "random"])
-@pytest.mark.parametrize("rates", [
-    # (length1, inc1, length2, inc2): a rate that does not divide 2**32 and a
-    # non-power-of-two length, then the fastest rate (just below one word per
-    # sample) on a short bank; then a slow one
-    (13, int(0.37 * 2 ** 32), 7, 2 ** 32 - 1),
-    (64, 2 ** 31 + 12345, 3, int(0.05 * 2 ** 32)),
-], ids=["frac-then-max", "full-then-slow"])
-def test_stream_replay(simulator, interpolation, en_pattern, rates):
-    depth = 128                                # the two streams in its two halves
-    dut = PooledStream(depth, interpolation=interpolation)
-    L1, inc1, L2, inc2 = rates
-    name = f"stream_{interpolation}"
-    R = dut.stream.refill_samples
-    # long enough to pass several wraps of stream 1, the switch, and wraps of stream 2
-    n1 = 2 * R + int(3 * L1 * 2 ** 32 / inc1) + 10
-    n2 = R + int(L1 * 2 ** 32 / inc1) + int(3 * L2 * 2 ** 32 / inc2) + 10
-    cocotb_run({f"{name}.v": verilog_of(dut, name)}, name, MODULE, "stream_replay",
-               simulator=simulator, name=f"{name}-{en_pattern}-{L1}-{L2}",
-               tb_params=dict(depth=depth, interpolation=interpolation, latency=stream_latency(interpolation),
-                              length1=L1, inc1=inc1, length2=L2, inc2=inc2, n1=n1, n2=n2, refill=R,
-                              seed=3, en_pattern=en_pattern))
+               simulator=simulator, name=f"delay-{max_delay}-{lag}-{en_pattern}",
+               label=f"delay_line{max_delay}_{lag}",
+               tb_params=dict(width=32, max_delay=max_delay, lag=lag, depth=dut.depth, latency=dut.latency,
+                              n=900, seed=5 + max_delay, en_pattern=en_pattern))

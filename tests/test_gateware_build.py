@@ -1,8 +1,8 @@
 """Board top, clocking and the bitstream flow.
 
 The fast tests elaborate the ULX3S top and check the PLL and pin map; the
-slow one builds the default configuration (8 channels, 100 MHz, ULX3S-85F)
-with Yosys, nextpnr and ecppack once and checks its report.
+slow one builds one pipeline of the engine on the ULX3S-85F with Yosys,
+nextpnr and ecppack and checks its report.
 """
 
 import json
@@ -79,41 +79,34 @@ Printing statistics.
     assert parse_yosys_stat(log) == {"DP16KD": 2, "LUT4": 100, "MULT18X18D": 4}
 
 
+#: The slow build: one pipeline of the engine (10 channels, M = 10 slots) on
+#: the full board top at a 100 MHz fabric clock and 10 MS/s, with the default
+#: build's delays (8190 + 2046 samples) and a 16,384-word pool: the default
+#: build's structure at a size and clock CI's two cores route in minutes
+#: (docs/bitstream.md has the 200 MHz and 64-channel rungs, measured by
+#: bench/bench_bitstream.py).
+CI_BUILD = ["--channels", "10", "--sample-rate-mhz", "10", "--clock-mhz", "100", "--pool-words", "16384"]
+
+
 @pytest.mark.slow
-def test_default_bitstream(tmp_path):
-    """`rast build` of the default configuration (8 channels, FIR, the examples'
-    20 MS/s) meets timing and reports what it replays."""
+def test_engine_bitstream(tmp_path):
+    """`rast build` of one time-multiplexed pipeline meets timing and reports
+    what it replays."""
     out = tmp_path / "bit"
-    proc = subprocess.run([sys.executable, "-m", "rast.cli", "build", "--out", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "rast.cli", "build", *CI_BUILD, "--out", str(out)],
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     rep = json.loads((out / "report.json").read_text())
     assert (out / "rast_top.bit").stat().st_size > 100_000
-    assert rep["timing"]["met"] is True
-    assert rep["timing"]["fmax_mhz"] >= 20.0
-    assert rep["config"]["channels"] == 8
-    assert rep["build"]["sample_rate_hz"] == 20_000_000 and rep["build"]["interpolation"] == "fir"
+    assert rep["timing"]["met"] is True and rep["timing"]["fmax_mhz"] >= 100.0
+    assert rep["config"]["channels"] == 10 and rep["config"]["pipelines"] == 1
+    assert rep["build"]["sample_rate_hz"] == 10_000_000 and rep["build"]["slots"] == 10
+    assert rep["build"]["interpolation"] == "fir"
     r = rep["resources"]
-    assert r["dsps"]["used"] == 8 * 10 and r["dsps"]["available"] == 156
+    assert r["dsps"]["used"] == 10 and r["dsps"]["available"] == 156
     assert r["block_rams"]["used"] <= r["block_rams"]["available"] == 208
     assert 0 < r["luts"]["used"] < r["luts"]["available"]
     assert 0 < r["ffs"]["used"] < r["ffs"]["available"]
-    assert rep["memory"]["pool_words"] == 65536
-    assert rep["memory"]["delay_samples"] == {"common": 4094, "tap": 1022}
+    assert rep["memory"]["pool_words"] == 16384
+    assert rep["memory"]["delay_samples"] == {"common": 8190, "tap": 2046}
     assert "clock" in proc.stdout and "met" in proc.stdout
-
-
-@pytest.mark.slow
-def test_fir_channels_close_100_mhz(tmp_path):
-    """The wide-band case: 4 FIR channels clocked at 100 MHz meet timing with
-    the default delays, stated: 4094 samples common (6.1 km at 100 MS/s) and
-    a 1022-sample window (1.5 km) (docs/bitstream.md: 8 channels do not,
-    yet, nor 4 with 8190 + 2046 samples of delay)."""
-    out = tmp_path / "bit"
-    proc = subprocess.run([sys.executable, "-m", "rast.cli", "build", "--channels", "4", "--clock-mhz", "100",
-                           "--max-delay", "4094", "--max-tap", "1022", "--out", str(out)],
-                          capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    rep = json.loads((out / "report.json").read_text())
-    assert rep["timing"]["met"] is True and rep["timing"]["fmax_mhz"] >= 100.0
-    assert rep["build"]["sample_rate_hz"] == 100_000_000 and rep["resources"]["dsps"]["used"] == 4 * 10
