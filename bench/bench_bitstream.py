@@ -17,18 +17,19 @@ from pathlib import Path
 from rast.gateware.build import BuildConfig, build
 from rast.model.fixedpoint import ReplayContract
 
-#: label -> (what it answers, BuildConfig keyword arguments)
+#: label -> (what it answers, BuildConfig keyword arguments). Every rung on the
+#: full board top (PLL, I/O, UART bridge, engine), delays 8190 + 2046 samples.
 LADDER = {
-    "n8_20": ("default: 8 FIR channels at the examples' 20 MS/s, 65536-word pool", dict()),
-    "n4_100": ("wide band: 4 FIR channels at 100 MS/s, delays 4094 + 1022 (6.1 + 1.5 km)",
-               dict(channels=4, clock_mhz=100, max_delay=4094, max_tap=1022)),
-    "n4_100_d": ("4 FIR channels at 100 MS/s, delays 8190 + 2046",
-                 dict(channels=4, clock_mhz=100, max_delay=8190, max_tap=2046)),
-    "n8_20_61k": ("the default build with delays 8190 + 2046 (61 + 15 km at 20 MS/s)",
-                  dict(max_delay=8190, max_tap=2046)),
-    "n8_100": ("8 FIR channels at 100 MS/s", dict(channels=8, clock_mhz=100)),
-    "n8_20_80k": ("8 FIR channels, the largest pool beside them (81920 words)",
-                  dict(pool_words=81920)),
+    "n64_20_200": ("default: 64 FIR channels at 20 MS/s on a 200 MHz fabric (M = 10, 7 pipelines), "
+                   "81,920-word pool", dict()),
+    "n16_100_200": ("wide band: 16 FIR channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",
+                    dict(channels=16, sample_rate_mhz=100, pool_words=32768)),
+    "n20_20_200": ("two pipelines of the default (20 channels, M = 10), 16,384-word pool",
+                   dict(channels=20, pool_words=16384)),
+    "n10_20_200": ("one pipeline of the default (10 channels, M = 10), 16,384-word pool",
+                   dict(channels=10, pool_words=16384)),
+    "n10_10_100": ("one pipeline at 100 MHz (10 channels at 10 MS/s, M = 10): the CI build",
+                   dict(channels=10, sample_rate_mhz=10, clock_mhz=100, pool_words=16384)),
 }
 
 ROOT = Path(__file__).resolve().parent.parent / "build" / "bench_bitstream"
@@ -39,37 +40,48 @@ def row(label, what, rep):
     cp = t.get("critical_path") or {}
     lim = f"{cp.get('from', '?')} -> {cp.get('to', '?')} ({cp.get('routing_ns', 0):.1f} of " \
           f"{cp.get('delay_ns', 0):.1f} ns routing)"
-    return (f"{label:<10} {rep['config']['channels']:>3} {rep['config']['pool_words']:>6} "
+    return (f"{label:<12} {rep['config']['channels']:>3} {rep['build']['sample_rate_hz'] / 1e6:>5.0f} "
+            f"{rep['build']['slots']:>3} {rep['config']['pool_words']:>6} "
             f"{rep['config']['clock_mhz']:>6.0f} {t['fmax_mhz']:>7.1f} {'yes' if t['met'] else 'NO':>4} "
             f"{r['luts']['used']:>6} {r['ffs']['used']:>6} {r['dsps']['used']:>4}/{r['dsps']['available']} "
             f"{r['block_rams']['used']:>4}/{r['block_rams']['available']}  {lim}\n"
-            f"{'':<10} {what}")
+            f"{'':<12} {what}")
 
 
 def seed_capacity():
-    """Turbines of the seed's section 4.3 scenarios one LFE5U-85F holds at once
-    (stream rate 4 x max Doppler, C band, FIR), from the block RAM budget: all
-    in the pool, with room to reload one while all play."""
-    from rast.gateware.capacity import turbines_per_device
+    """Turbines one LFE5U-85F replays at once from block RAM alone at the
+    default build's slots and delays (20 MS/s on 200 MHz, 8190 + 2046
+    samples, FIR): the seed's section 4.3 turbines (stream rate 4 x max
+    Doppler, C band), each alone many times over, with room to reload one
+    while all play; and the 64-turbine example farm as it is."""
+    from rast.gateware.capacity import pool_words_for, total_blocks, total_dsps, turbines_per_device, \
+        DEVICE_BLOCKS
     from rast.model.config import load_config
     from rast.model.stream import build_farm_streams
     examples = Path(__file__).resolve().parent.parent / "examples"
-    windows = (ReplayContract.max_tap, 2046)      # the default window, and the 15 km one
-    print("\nturbines per LFE5U-85F (stream pool, one stream's room to reload, 4x max Doppler, FIR;"
-          f" common delay {ReplayContract.max_delay}; each channel's delay window {windows[0]} "
-          f"(default) or {windows[1]} samples deep):")
+    kw = BuildConfig().replay_kwargs()
+    shape = dict(slots=kw["slots"], max_delay=kw["max_delay"], max_tap=kw["max_tap"])
+    print(f"\nturbines per LFE5U-85F from block RAM (the default build's M = {shape['slots']}, delays "
+          f"{shape['max_delay']} + {shape['max_tap']}; every stream in the pool with room to reload one):")
     for name in ("sec4_3_3_three_blades", "sec4_3_3_realistic", "sec4_3_4_four_windmills",
                  "two_windmills"):
         farm = load_config(examples / f"{name}.toml")
         for s in build_farm_streams(farm).streams:
             words = s.plan.length
-            cells = []
-            for window in windows:
-                n, pool, lim = turbines_per_device(words, max_tap=window)
-                cells.append(f"window {window}: {n:>2}, pool {pool} words (next one: {lim})")
+            n, pool, lim = turbines_per_device(words, **shape)
             print(f"  {name:<24} {s.windmill.name:<5} {s.windmill.rpm:>3g} rpm "
                   f"{s.windmill.num_blades} blade(s) {s.plan.max_doppler_hz:>6.0f} Hz "
-                  f"{words:>6} words; " + "; ".join(cells))
+                  f"{words:>6} words: {n:>3} turbines, pool {pool} words (one more: {lim})")
+    brams, dsps = DEVICE_BLOCKS["LFE5U-85F"]
+    for name in ("farm_atc_sband", "farm_layout"):
+        farm = load_config(examples / f"{name}.toml")
+        lengths = [s.plan.length for s in build_farm_streams(farm).streams]
+        pool = pool_words_for(sum(lengths) + max(lengths))
+        c = ReplayContract(channels=len(lengths), pool_words=pool, **shape)
+        fits = total_blocks(c) <= brams and total_dsps(c) <= dsps
+        print(f"  {name:<24} {len(lengths)} turbines, {sum(lengths)} words (longest {max(lengths)}): "
+              f"pool {pool} words, {total_blocks(c)}/{brams} DP16KD, {total_dsps(c)}/{dsps} DSP: "
+              f"{'all fit' if fits else 'does not fit'}")
 
 
 def main():
@@ -81,7 +93,7 @@ def main():
     if args.capacity:
         seed_capacity()
         return
-    print(f"{'label':<10} {'N':>3} {'pool':>6} {'asked':>6} {'fmax':>7} {'met':>4} {'LUTs':>6} "
+    print(f"{'label':<12} {'N':>3} {'fs':>5} {'M':>3} {'pool':>6} {'fclk':>6} {'fmax':>7} {'met':>4} {'LUTs':>6} "
           f"{'FFs':>6} {'DSPs':>8} {'BRAMs':>8}  critical path")
     for label, (what, kw) in LADDER.items():
         if args.only and label not in args.only:
