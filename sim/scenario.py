@@ -228,6 +228,9 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
         length = int(rng.integers(1, 160))
         gain = int(rng.integers(fx.GAIN.max + 1 - 4096, fx.GAIN.max + 1)) if full else _random_gain(rng)
         base = pool.place(ch, length, force=True)
+        if base is None:
+            raise ValueError(f"The streams of {channels} channels do not fit a {c.pool_words}-word pool "
+                             f"(channel {ch}, {length} words): give the scenario a larger pool_words")
         regs += [(0, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full), length,
                                                _random_inc(rng), base,
                                                enable=full or rng.random() < 0.85, force=True)]

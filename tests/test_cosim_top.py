@@ -21,15 +21,16 @@ MODULE = "rast.sim.tb_top"
 STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 
 
-def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=40):
-    sources, top = top_sources(channels, slots=slots, interpolation=interpolation, **TEST_CONTRACT)
+def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=40, pool_words=None):
+    contract = dict(TEST_CONTRACT, **({} if pool_words is None else {"pool_words": pool_words}))
+    sources, top = top_sources(channels, slots=slots, interpolation=interpolation, **contract)
     g, s = STALLS[stalls]
     cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator, bulk=True,
                label=f"top{channels}m{slots}{interpolation}",
                name=f"{kind}-{channels}ch-m{slots}-{stalls}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=g,
                               stall_thresh=s, interpolation=interpolation, pulses=pulses,
-                              contract=dict(TEST_CONTRACT, slots=slots)))
+                              contract=dict(contract, slots=slots)))
 
 
 def _cases(cases, icarus):
@@ -77,7 +78,7 @@ def test_top_66_channels(kind, seed):
     """66 channels, 7 pipelines of 10 slots (the last with 6): the default
     build's shape with more channels than it has (Verilator: on Icarus this
     is most of an hour)."""
-    _run("verilator", 66, kind, seed, "gaps", slots=10, pulses=12)
+    _run("verilator", 66, kind, seed, "gaps", slots=10, pulses=12, pool_words=16384)
 
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
