@@ -508,11 +508,11 @@ class ChannelPipeline(wiring.Component):
             a2 = cache_read(caches[0], st.cpos, "word_a")
             b2 = cache_read(caches[1], st.cpos + 1, "word_b") if interp == "linear" else a2
         f2 = _delay(m, f_op, 2, "word_f")
-        mute = _delay(m, mute_out, 6, "word_mute")
+        mute = _delay(m, mute_out, WORD_CYCLES - 1, "word_mute")        # beside the word's last register
         word = Signal(IQ(STREAM_WIDTH), name="word")
         if interp == "hold":
             # the word itself, as late as the interpolated one would be
-            m.d.sync += word.eq(Mux(mute, 0, _delay(m, a2, 4, "word_hold")))
+            m.d.sync += word.eq(Mux(mute, 0, _delay(m, a2, WORD_CYCLES - 3, "word_hold")))
         else:
             f3 = _delay(m, f2, 1, "word_f3")
             for part in ("re", "im"):
@@ -525,9 +525,11 @@ class ChannelPipeline(wiring.Component):
                 prod = _delay(m, mul.o, 1, f"word_prod_{part}")
                 # a*2**16 + 2**15: the rounding constant rides with a (in its
                 # zero low bits), so the sum and the rounding are one adder
-                a6 = _delay(m, getattr(a2, part), 4, f"word_a6_{part}")
+                a6 = _delay(m, getattr(a2, part), WORD_CYCLES - 3, f"word_a6_{part}")
                 a6r = Cat(Const(1 << (INTERP_FRAC_BITS - 1), INTERP_FRAC_BITS), a6).as_signed()
                 m.d.sync += getattr(word, part).eq(Mux(mute, 0, (a6r + prod) >> INTERP_FRAC_BITS))
+            # operands (address, word), difference, multiplier in and out, product, sum
+            assert 2 + 1 + 2 + 1 + 1 == WORD_CYCLES
 
         # ---- the FIR's serial MAC: one tap per visit of a slot -------------------
         if fir:
@@ -544,7 +546,7 @@ class ChannelPipeline(wiring.Component):
         read_at = WORD_CYCLES - win.latency
         write_at = V + read_at + 1                    # clocks after the period start
         wen = _delay(m, start & self.accept, write_at, "win_wen")
-        wdata = _delay(m, self.win_data, write_at - 3, "win_wdata")
+        wdata = _delay(m, self.win_data, write_at - DelayLine.latency, "win_wdata")   # the common line's
         windex = _delay(m, nidx_h, write_at - 1, "win_windex")
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
                      win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex")),

@@ -247,14 +247,11 @@ class RegisterFile(wiring.Component):
                 land_data[ch] = dcopy
                 land_apply[ch] = ap
 
-        def wsel(r):
-            return strobe[r.addr]
-
         # Generic rw storage.
         for r in rmap.registers:
             for f in r.fields:
                 if f.access == "rw":
-                    with m.If(wsel(r)):
+                    with m.If(strobe[r.addr]):
                         m.d.sync += storage[(r.name, r.channel, f.name)].eq(land_field[(r.addr, f.name)])
 
         # Per channel: what the engine reads, the applied tap, the command.
@@ -268,7 +265,7 @@ class RegisterFile(wiring.Component):
                 m.d.sync += tap.eq(storage[("DELAY", l, "delay")])
             # A CTRL write leaves a command for the channel's next visit; the
             # engine consumes it when it reads the channel (cmd_ack).
-            with m.If(wsel(ctrl)):
+            with m.If(strobe[ctrl.addr]):
                 m.d.sync += [rg.cmd_valid.eq(1),
                              rg.cmd_enable.eq(lnd[ctrl.field("enable").lsb]),
                              rg.cmd_swap.eq(lnd[ctrl.field("swap").lsb])]
@@ -291,7 +288,7 @@ class RegisterFile(wiring.Component):
 
         # Pool write path, registered.
         addr = storage[("STREAM_ADDR", None, "addr")]
-        data_w = wsel(rmap.reg("STREAM_DATA"))
+        data_w = strobe[rmap.reg("STREAM_DATA").addr]
         m.d.sync += self.wr_en.eq(data_w)
         with m.If(data_w):
             m.d.sync += [self.wr_addr.eq(addr), self.wr_data.eq(land_data[None]), addr.eq(addr + 1)]
