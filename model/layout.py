@@ -33,7 +33,8 @@ import csv
 import io
 import math
 import re
-from dataclasses import dataclass
+import tomllib
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -139,6 +140,7 @@ class FarmSettings:
     pulse_width_us: float = 2.0
     cpi_ms: float = 100.0
     ram_depth: int | None = None     # words of the build's stream pool; None: not written (no limit)
+    output_gain_db: float | None = None   # dB; None: not written (0, the loudest echo at full scale)
 
 
 @dataclass(frozen=True)
@@ -471,6 +473,8 @@ def farm_toml(placed: list[PlacedTurbine], settings: FarmSettings, *, header: li
         f"cpi = {settings.cpi_ms:g}                 # ms",
         *([f"ram_depth = {settings.ram_depth}         # words: the stream pool of the build to load"]
           if settings.ram_depth is not None else []),
+        *([f"output_gain_db = {settings.output_gain_db:g}    # dB: the loudest sum of echoes within one pulse "
+           "at full scale"] if settings.output_gain_db is not None else []),
     ]
     for p in placed:
         lines += _windmill_table(p, tower_rcs_m2)
@@ -514,5 +518,29 @@ def make_farm(layout: Layout, radar: RadarSite, wind_from_deg: float, *, turbine
         "One RTS replays every turbine from the bearing of its own antenna: ranges and aspect",
         f"angles (rotor_angle) are kept, the azimuth spread of {width:.2f} deg is not.",
     ]
+    # Echoes within one pulse of each other add up in the RTS's output: keep
+    # their loudest sum at full scale, so that a full-scale pulse never clips.
+    level = _echo_sum(farm_toml(placed, settings, header=[], tower_rcs_m2=tower_rcs_m2))
+    if isinstance(level, str):
+        summary.append(f"the echoes' loudest sum is not known ({level}): `rast stream` says more")
+    elif level.clips:
+        settings = replace(settings, output_gain_db=-math.ceil(level.level_dbfs * 10) / 10)
+        summary.append(f"output_gain_db = {settings.output_gain_db:g} dB: the echoes of {len(level.windmills)} "
+                       f"turbines within one {settings.pulse_width_us:g} us pulse add up to "
+                       f"{level.level_dbfs:+.1f} dBFS for a full-scale pulse at 0 dB; this keeps them under "
+                       "full scale")
     header = ["Wind farm written by `rast farm` from a turbine layout (docs/farm_layouts.md).", *summary]
     return farm_toml(placed, settings, header=header, tower_rcs_m2=tower_rcs_m2), summary
+
+
+def _echo_sum(text: str):
+    """The loudest echo sum (``stream.FarmStreams.echo_sum``) of a farm config's
+    text, whatever stream pool it names (the sum does not depend on it); the
+    reason as a string when its streams cannot be made."""
+    from .config import ConfigError, parse_config
+    from .stream import build_farm_streams
+    farm = replace(parse_config(tomllib.loads(text), "the farm config"), ram_depth=None)
+    try:
+        return build_farm_streams(farm).echo_sum()
+    except ConfigError as error:
+        return str(error)

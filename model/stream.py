@@ -35,7 +35,7 @@ from .config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
 from .synthesis import ComputePool, Synthesis, synthesise_period
 from .turbine import max_doppler_hz
 
-__all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams",
+__all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams", "EchoSum",
            "plan_stream", "stream_times", "quantise", "quantise_words", "build_farm_streams",
            "delay_samples", "farm_for_build"]
 
@@ -263,6 +263,47 @@ class WindmillStream:
         return out
 
 
+@dataclass(frozen=True)
+class EchoSum:
+    """The loudest output one RTS sample can hold: the sum of the echo peaks of
+    every channel whose delayed pulse covers it, for a full-scale pulse.
+
+    A pulse of ``pulse_samples`` leaves channel l's echo in the output from
+    ``d_l`` to ``d_l + pulse_samples − 1`` (seed eq. 2.3); echoes whose delays
+    lie closer than a pulse overlap, and the block adds them before it
+    saturates (``datapath.channel_sum``). With an input of magnitude 1 (a
+    complex tone reaching full scale on I and Q), channel l's output is at
+    most ``g_l·|w_l|`` of full scale on either component (g_l the gain word
+    over 2**GAIN_FRAC, |w_l| its largest word's magnitude over 2**15): the
+    sum of those over the overlapping channels bounds the output, reached
+    when their phases line up. Above 1.0 (0 dBFS) the output can clip.
+    """
+    level: float                    # fraction of output full scale
+    delay_samples: int              # the nearest of the channels that add up there
+    pulse_samples: int
+    windmills: tuple[str, ...]
+
+    @property
+    def level_dbfs(self) -> float:
+        return 20 * math.log10(self.level) if self.level > 0 else -math.inf
+
+    @property
+    def clips(self) -> bool:
+        """Over full scale by more than the rounding of the loudest gain (which
+        ``output_gain_db`` = 0 puts at full scale exactly)."""
+        return self.level_dbfs >= 0.05
+
+    def describe(self) -> str:
+        n = len(self.windmills)
+        where = f"{n} echoes within one {self.pulse_samples}-sample pulse from delay {self.delay_samples}" \
+            if n > 1 else f"one echo at delay {self.delay_samples}"
+        text = f"loudest echo sum for a full-scale pulse: {self.level_dbfs:+.1f} dBFS ({where})"
+        if self.clips:
+            text += (f": they saturate the output where they line up; keep the radar's pulse under "
+                     f"{-self.level_dbfs:.1f} dBFS, or lower output_gain_db by {self.level_dbfs:.1f} dB")
+        return text
+
+
 @dataclass
 class FarmStreams:
     farm: Farm
@@ -282,6 +323,25 @@ class FarmStreams:
             max_delay=fx.delay_depth(min(delays)) - 2,
             max_tap=max(2, fx.delay_depth(max(delays) - min(delays)) - 2),
             interpolation=self.farm.interpolation, sample_rate_hz=round(self.farm.sample_rate_hz))
+
+    def echo_sum(self, pulse_samples: int | None = None) -> EchoSum:
+        """The loudest sum of overlapping echoes (:class:`EchoSum`) for pulses of
+        ``pulse_samples`` (default: the radar's pulse width at the sample rate)."""
+        if pulse_samples is None:
+            pulse_samples = max(1, round(self.farm.radar.pulse_width_us * self.farm.sample_rate_mhz))
+        full = float(1 << (fx.STREAM_WIDTH - 1))
+        delays = np.array([s.delay_samples for s in self.streams], dtype=np.int64)
+        peaks = np.array([s.gain_word / (1 << fx.GAIN_FRAC) *
+                          (float(np.sqrt(np.max(s.i.astype(float) ** 2 + s.q.astype(float) ** 2)))
+                           if s.i.size else 0.0) / full for s in self.streams])
+        # The loudest window starts at some channel's delay: sum those up to a pulse later.
+        order = np.argsort(delays, kind="stable")
+        delays, peaks = delays[order], peaks[order]
+        ends = np.searchsorted(delays, delays + pulse_samples, side="left")
+        sums = np.concatenate([[0.0], np.cumsum(peaks)])
+        k = int(np.argmax(sums[ends] - sums[:delays.size]))
+        return EchoSum(float(sums[ends[k]] - sums[k]), int(delays[k]), int(pulse_samples),
+                       tuple(self.streams[j].windmill.name for j in order[k:ends[k]]))
 
     def manifest(self, file_names: dict[str, dict[str, str]] | None = None) -> dict:
         """The farm's manifest: per windmill its stream, delay and gain, and register values."""

@@ -114,6 +114,7 @@ def cmd_stream(args) -> int:
         raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
     _print_streams(farm_streams)
     _print_synthesis(farm_streams)
+    print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()
     except ValueError as error:     # e.g. seed mode's millions of words: no replay block holds them

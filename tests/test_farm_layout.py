@@ -356,6 +356,38 @@ def test_atc_example_fits_the_block_ram_build():
     assert max(s.plan.max_doppler_hz for s in fs.streams) < farm.radar.prf_hz / 2
 
 
+@pytest.mark.parametrize("headroom", [True, False])
+def test_a_full_scale_pulse_through_the_atc_farm_does_not_clip(tmp_path, headroom):
+    """Eight turbines of the S-band farm lie within one 1 us pulse; their echoes
+    add up in the block's output. `rast farm` lowers output_gain_db so that
+    their largest possible sum is full scale: a full-scale chirp through the
+    bit-exact model of the block then never sets the saturation flag. Without
+    that line (gains as at 0 dB, the loudest single echo at full scale) the
+    same pulses saturate it."""
+    from rast.model.stream import build_farm_streams
+    from rast.sim.e2e import prepare
+    from rast.sim.scenario import model_outputs
+    text = (EXAMPLES / "farm_atc_sband.toml").read_text()
+    gain_line = [line for line in text.splitlines() if line.startswith("output_gain_db")]
+    assert len(gain_line) == 1
+    if not headroom:
+        text = text.replace(gain_line[0] + "\n", "")
+    config = tmp_path / "farm.toml"
+    config.write_text(text)
+    level = build_farm_streams(load_config(config)).echo_sum()
+    assert len(level.windmills) == 8 and level.pulse_samples == 20
+    e = prepare(config, 0.01, amplitude=1.0)                  # 10 pulses, full scale on I and Q
+    yi, yq, overflow = model_outputs(e.scenario)
+    peak = max(np.abs(yi).max(), np.abs(yq).max())
+    if headroom:
+        assert -0.1 <= level.level_dbfs <= 0.0 and not level.clips
+        assert overflow == 0 and peak < 32767
+        assert peak > 32767 / 10                              # the echoes are there, within 20 dB
+    else:
+        assert level.clips and level.level_dbfs > 15
+        assert overflow == 1 and peak == 32768
+
+
 def test_preview_draws_a_grid_of_range_bins_or_a_map(tmp_path, capsys):
     """More range bins than fit stacked: a grid of small panels, not one tall
     column; --range-doppler draws the map instead."""
