@@ -51,7 +51,7 @@ def main():
         size = sum(p.stat().st_size for p in written.values())
     n = len(farm.windmills)
     print(f"layout: {LAYOUT.name}, {n} turbines; best of {args.repeat}")
-    print(f"rast farm model (CSV, PROJ, config text): {t_farm * 1e3:8.1f} ms  ({t_farm / n * 1e3:.2f} ms per turbine)")
+    print(f"rast farm (CSV, PROJ, echo sum, text):    {t_farm * 1e3:8.1f} ms  ({t_farm / n * 1e3:.2f} ms per turbine)")
     print(f"build_farm_streams:                       {t_streams * 1e3:8.1f} ms  ({words} stream words, "
           f"{words / t_streams / 1e6:.2f} M words/s)")
     print(f"RAM files, all {len(FORMATS)} formats:                {t_files * 1e3:8.1f} ms  "

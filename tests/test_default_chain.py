@@ -85,7 +85,9 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     t = np.arange(pri)
     xi = np.where(t < burst, np.round(12000 * np.cos(0.3 * t)), 0).astype(np.int64)
     xq = np.where(t < burst, np.round(12000 * np.sin(0.3 * t)), 0).astype(np.int64)
-    n_steps = host_clocks(board.sent, system.divisor) + contract.refill_samples + 60_000
+    # the load takes host_clocks fabric clocks, a sample every `slots` of them; then
+    # more play than the 100 k-sample tail the chain captures
+    n_steps = -(-host_clocks(board.sent, system.divisor) // contract.slots) + contract.refill_samples + 120_000
     rtl = run_chain(system, board.sent, pack_iq(xi, xq), n_steps, tmp_path / "sim")
 
     assert rtl.tx == bytes(board.replies), "the bridge's answers differ from the protocol's"
@@ -109,4 +111,5 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     bad = np.nonzero((rtl.tail != tail).any(axis=1))[0]
     assert not bad.size, f"first differing output {rtl.tail_from + bad[0]}: {rtl.tail[bad[0]]} vs {tail[bad[0]]}"
     # the loaded streams play: both windmills' echoes of every burst (a fifth of the time)
+    assert rtl.writes[-1][0] < rtl.tail_from, "the load had not ended when the tail began"
     assert np.count_nonzero(rtl.tail.any(axis=1)) > 0.15 * len(rtl.tail)
