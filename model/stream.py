@@ -297,7 +297,7 @@ class EchoSum:
         n = len(self.windmills)
         where = f"{n} echoes within one {self.pulse_samples}-sample pulse from delay {self.delay_samples}" \
             if n > 1 else f"one echo at delay {self.delay_samples}"
-        text = f"loudest echo sum for a full-scale pulse: {self.level_dbfs:+.1f} dBFS ({where})"
+        text = f"loudest echo sum for a full-scale pulse: {round(self.level_dbfs, 1) + 0.0:+.1f} dBFS ({where})"
         if self.clips:
             text += (f": they saturate the output where they line up; keep the radar's pulse under "
                      f"{-self.level_dbfs:.1f} dBFS, or lower output_gain_db by {self.level_dbfs:.1f} dB")
@@ -329,11 +329,15 @@ class FarmStreams:
         ``pulse_samples`` (default: the radar's pulse width at the sample rate)."""
         if pulse_samples is None:
             pulse_samples = max(1, round(self.farm.radar.pulse_width_us * self.farm.sample_rate_mhz))
-        full = float(1 << (fx.STREAM_WIDTH - 1))
+        def largest_word(s):            # |w|, in blocks: a seed-mode stream holds 26.7 M words
+            top = 0
+            for start in range(0, s.i.size, _QUANTISE_BLOCK):
+                i, q = (v[start:start + _QUANTISE_BLOCK].astype(np.int64) for v in (s.i, s.q))
+                top = max(top, int(np.max(i * i + q * q)))
+            return math.sqrt(top) / (1 << (fx.STREAM_WIDTH - 1))
+
         delays = np.array([s.delay_samples for s in self.streams], dtype=np.int64)
-        peaks = np.array([s.gain_word / (1 << fx.GAIN_FRAC) *
-                          (float(np.sqrt(np.max(s.i.astype(float) ** 2 + s.q.astype(float) ** 2)))
-                           if s.i.size else 0.0) / full for s in self.streams])
+        peaks = np.array([s.gain_word / (1 << fx.GAIN_FRAC) * largest_word(s) for s in self.streams])
         # The loudest window starts at some channel's delay: sum those up to a pulse later.
         order = np.argsort(delays, kind="stable")
         delays, peaks = delays[order], peaks[order]

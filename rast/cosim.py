@@ -202,7 +202,8 @@ def run(args) -> int:
         lines += [f"samples compared    {rep['compared']:,} (per-pulse range-gate samples, as integers)",
                   f"samples checksummed {rep['checksummed']:,} (every output, position-weighted sums)",
                   f"mismatches          {rep['mismatches']}",
-                  f"output saturated    {'yes (OVERFLOW set, as in the model): ' + e.streams.echo_sum().describe() if rep['overflow'] else 'no'}",
+                  "output saturated    " + ("yes (OVERFLOW set, as in the model): " + e.streams.echo_sum().describe()
+                                            if rep["overflow"] else "no"),
                   f"RTL run time        {rep['rtl_wall_s']:.1f} s wall, "
                   f"{rep['samples_per_s'] / 1e6:.2f} M simulated samples/s",
                   f"model wait          {rep['model_s']:.1f} s (the model runs beside the RTL)",

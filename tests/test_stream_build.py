@@ -117,3 +117,21 @@ def test_stream_says_whether_it_fits_the_default_bitstream(tmp_path, capsys):
     assert main(["stream", str(ROOT / "examples" / "farm_layout.toml"), "--out", str(tmp_path / "b")]) == 0
     out = capsys.readouterr().out
     assert "does not fit the default bitstream" in out and "but the stream pool holds 81920" in out
+
+
+def test_stream_says_where_echoes_add_up_beyond_full_scale(tmp_path, capsys):
+    """Two windmills at one range, each at full scale (output_gain_db 0, equal
+    gains): their echoes add to twice full scale, +6.0 dBFS, and `rast stream`
+    says so with what to do; the same two a pulse apart stay at full scale."""
+    config = ROOT / "examples" / "two_windmills.toml"
+    assert main(["stream", str(config), "--out", str(tmp_path / "a")]) == 0
+    out = capsys.readouterr().out
+    assert ("loudest echo sum for a full-scale pulse: +6.0 dBFS (2 echoes within one 200-sample pulse "
+            "from delay 267): they saturate the output") in out
+    assert "keep the radar's pulse under -6.0 dBFS, or lower output_gain_db by 6.0 dB" in out
+    apart = tmp_path / "apart.toml"          # the second windmill 1.5 km (10 us pulse: 1.5 km) farther
+    apart.write_text(config.read_text().replace("range = 2.0", "range = 3.5", 1))
+    assert main(["stream", str(apart), "--out", str(tmp_path / "b")]) == 0
+    out = capsys.readouterr().out
+    assert "loudest echo sum for a full-scale pulse: +0.0 dBFS (one echo at delay" in out
+    assert "saturate" not in out
