@@ -47,6 +47,10 @@ def _delay(m, sig, n, name):
     return sig
 
 
+#: Address bits of the FIR coefficient ROM's second level (2**k first-level ROMs).
+COEF_ROM_SPLIT_BITS = 2
+
+
 #: Shortest delay kept in distributed RAM rather than in a chain of registers.
 RAM_DELAY_MIN = 3
 
@@ -490,7 +494,10 @@ class ChannelPipeline(wiring.Component):
         def cache_read(port, pos, name):
             """The cache word at ``pos`` of the visiting slot, the address
             registered in the visit, the word a clock later in a register."""
-            addr = Signal(len(port.addr), name=f"{name}_addr")
+            # keep: else synthesis merges the register into the distributed
+            # RAM's read port and moves it after the RAM, the address logic
+            # and the RAM then in one clock (7.7 ns)
+            addr = Signal(len(port.addr), name=f"{name}_addr", attrs={"keep": 1})
             m.d.sync += addr.eq(Cat(pos[:POS_BITS], vslot[:SB]) if M > 1 else pos[:POS_BITS])
             word = Signal(IQ(STREAM_WIDTH), name=name)
             m.d.comb += port.addr.eq(addr)
@@ -590,20 +597,34 @@ class ChannelPipeline(wiring.Component):
         for p, row in enumerate(coefs):
             for k, v in enumerate(row):
                 rom_init[(p << TB) | k] = v
-        # in logic, not a block RAM: the block RAMs are the pool's and the delays'
-        m.submodules.coef_rom = rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=len(rom_init),
-                                             init=rom_init, attrs={"rom_style": "logic"})
-        rd = rom.read_port(domain="comb")
-        rom_addr = Signal(len(rd.addr), name="mac_rom_addr")
+        # In logic, not a block RAM (the block RAMs are the pool's and the
+        # delays'), and in two registered levels: ROMs of the address's low
+        # bits (a 7-input function per bit, one slice's LUT-mux tree), then a
+        # multiplexer of their outputs by the high bits. The whole 9-input ROM
+        # in one clock was the pipeline's worst path (7.9 ns).
+        addr_bits = TB + PB
+        low_bits = addr_bits - COEF_ROM_SPLIT_BITS
+        rom_addr = Signal(addr_bits, name="mac_rom_addr")
+        rom_high = Signal(COEF_ROM_SPLIT_BITS, name="mac_rom_high")
+        m.d.sync += [rom_addr.eq(Cat(st.tap, st.cphase)), rom_high.eq(rom_addr[low_bits:])]
+        parts = []
+        for k in range(1 << COEF_ROM_SPLIT_BITS):
+            rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=1 << low_bits,
+                         init=rom_init[k << low_bits:(k + 1) << low_bits], attrs={"rom_style": "logic"})
+            m.submodules[f"coef_rom{k}"] = rom
+            rd = rom.read_port(domain="comb")
+            part = Signal(signed(FIR_COEF_WIDTH), name=f"mac_coef{k}")
+            m.d.comb += rd.addr.eq(rom_addr[:low_bits])
+            m.d.sync += part.eq(rd.data)
+            parts.append(part)
         coef = Signal(signed(FIR_COEF_WIDTH), name="mac_coef")
-        m.d.sync += [rom_addr.eq(Cat(st.tap, st.cphase)), coef.eq(rd.data)]
-        m.d.comb += rd.addr.eq(rom_addr)
-        word = cache_read(cache, st.rpos, "mac_word")
+        m.d.sync += coef.eq(Array(parts)[rom_high])
+        word = _delay(m, cache_read(cache, st.rpos, "mac_word"), 1, "mac_word")   # beside the ROM's second level
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),
                      f0.dest.eq(st.dest)]
-        f5 = _delay(m, f0, 5, "mac_f")                      # with the product in fabric
+        f5 = _delay(m, f0, 6, "mac_f")                      # with the product in fabric
         resf = _delay(m, f5, 3, "mac_resf")                 # with the result
         res = Signal(IQ(W), name="mac_res")
         for part in ("re", "im"):
@@ -622,8 +643,9 @@ class ChannelPipeline(wiring.Component):
             m.d.sync += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
             lo, hi = -(1 << (W - 1)), (1 << (W - 1)) - 1
             m.d.sync += getattr(res, part).eq(Mux(rounded > hi, hi, Mux(rounded < lo, lo, rounded)))
-        # addresses, word, multiplier in and out, product, accumulator, round, saturate
-        assert 2 + 2 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
+        # addresses, ROM levels (the word beside), multiplier in and out, product,
+        # accumulator, round, saturate
+        assert 1 + 2 + 2 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
         pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
         res_d = _delay(m, res, pad, "mac_res")
         resf_d = _delay(m, resf, pad, "mac_resf")

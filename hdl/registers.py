@@ -359,7 +359,15 @@ class RegisterFile(wiring.Component):
             v = Signal(32, name=f"rd{delay}_{g}")
             sel = Const(0, 32)
             for addr, w in items:
-                sel = sel | Mux(st.addr == addr, w, 0)
+                # the address compare a clock earlier, in a register (the
+                # compare and the selection in one clock were the one-pipeline
+                # build's worst path at 7.8 ns)
+                hit = Signal(name=f"rd{delay}_hit{addr:x}")
+                if delay >= 1:
+                    m.d.sync += hit.eq(stage[delay - 1].addr == addr)
+                else:
+                    m.d.comb += hit.eq(st.addr == addr)
+                sel = sel | Mux(hit, w, 0)
             m.d.sync += v.eq(sel)
             firsts.append(v)
         second = Signal(32, name=f"rd{delay}_all")
