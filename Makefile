@@ -23,7 +23,7 @@ run: $(STAMP)
 	$(BIN)/rast preview $(EXAMPLE) --out $(OUT)/spectrogram.png
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -n 2 -ra --durations=25 $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 --dist worksteal -ra --durations=25 $(PYTEST_ARGS)
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_streams.py
