@@ -624,8 +624,8 @@ class ChannelPipeline(wiring.Component):
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),
                      f0.dest.eq(st.dest)]
-        f5 = _delay(m, f0, 6, "mac_f")                      # with the product in fabric
-        resf = _delay(m, f5, 3, "mac_resf")                 # with the result
+        fprod = _delay(m, f0, 6, "mac_f")                    # with the product in fabric
+        resf = _delay(m, fprod, 3, "mac_resf")              # with the result
         res = Signal(IQ(W), name="mac_res")
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
@@ -638,7 +638,7 @@ class ChannelPipeline(wiring.Component):
             prev = acc
             if M > 1:
                 prev, _ = _ring_delay(m, acc, M - 1, [0] * (M - 1), f"fir_accs_{part}")
-            m.d.sync += acc.eq(Mux(f5.valid, Mux(f5.first, prod, prev + prod), prev))
+            m.d.sync += acc.eq(Mux(fprod.valid, Mux(fprod.first, prod, prev + prod), prev))
             rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}")
             m.d.sync += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
             lo, hi = -(1 << (W - 1)), (1 << (W - 1)) - 1
