@@ -274,7 +274,7 @@ class EchoSum:
     saturates (``datapath.channel_sum``). With an input of magnitude 1 (a
     complex tone reaching full scale on I and Q), channel l's output is at
     most ``g_l·|w_l|`` of full scale on either component (g_l the gain word
-    over 2**GAIN_FRAC, |w_l| its largest word's magnitude over 2**15): the
+    over 2**GAIN_FRAC, |w_l| its largest word's magnitude over 2**STREAM.frac): the
     sum of those over the overlapping channels bounds the output, reached
     when their phases line up. Above 1.0 (0 dBFS) the output can clip.
     """
@@ -334,7 +334,7 @@ class FarmStreams:
             for start in range(0, s.i.size, _QUANTISE_BLOCK):
                 i, q = (v[start:start + _QUANTISE_BLOCK].astype(np.int64) for v in (s.i, s.q))
                 top = max(top, int(np.max(i * i + q * q)))
-            return math.sqrt(top) / (1 << (fx.STREAM_WIDTH - 1))
+            return math.sqrt(top) / (1 << fx.STREAM.frac)
 
         delays = np.array([s.delay_samples for s in self.streams], dtype=np.int64)
         peaks = np.array([s.gain_word / (1 << fx.GAIN_FRAC) * largest_word(s) for s in self.streams])

@@ -364,6 +364,7 @@ def test_a_full_scale_pulse_through_the_atc_farm_does_not_clip(tmp_path, headroo
     bit-exact model of the block then never sets the saturation flag. Without
     that line (gains as at 0 dB, the loudest single echo at full scale) the
     same pulses saturate it."""
+    from rast.model.fixedpoint import OUTPUT
     from rast.model.stream import build_farm_streams
     from rast.sim.e2e import prepare
     from rast.sim.scenario import model_outputs
@@ -381,11 +382,11 @@ def test_a_full_scale_pulse_through_the_atc_farm_does_not_clip(tmp_path, headroo
     peak = max(np.abs(yi).max(), np.abs(yq).max())
     if headroom:
         assert -0.1 <= level.level_dbfs <= 0.0 and not level.clips
-        assert overflow == 0 and peak < 32767
-        assert peak > 32767 / 10                              # the echoes are there, within 20 dB
+        assert overflow == 0 and peak < OUTPUT.max
+        assert peak > OUTPUT.max / 10                         # the echoes are there, within 20 dB
     else:
         assert level.clips and level.level_dbfs > 15
-        assert overflow == 1 and peak == 32768
+        assert overflow == 1 and peak == -OUTPUT.min
 
 
 def test_preview_draws_a_grid_of_range_bins_or_a_map(tmp_path, capsys):

@@ -129,7 +129,7 @@ def test_stream_says_where_echoes_add_up_beyond_full_scale(tmp_path, capsys):
     assert ("loudest echo sum for a full-scale pulse: +6.0 dBFS (2 echoes within one 200-sample pulse "
             "from delay 267): they saturate the output") in out
     assert "keep the radar's pulse under -6.0 dBFS, or lower output_gain_db by 6.0 dB" in out
-    apart = tmp_path / "apart.toml"          # the second windmill 1.5 km (10 us pulse: 1.5 km) farther
+    apart = tmp_path / "apart.toml"          # the first windmill 1.5 km (a 10 us pulse) farther
     apart.write_text(config.read_text().replace("range = 2.0", "range = 3.5", 1))
     assert main(["stream", str(apart), "--out", str(tmp_path / "b")]) == 0
     out = capsys.readouterr().out
