@@ -24,13 +24,13 @@ from amaranth.lib.wiring import In, Out
 from ..hdl.iq import IQ
 from ..hdl.replay_top import WindFarmReplay
 from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG
+from ..model.hostproto import DEFAULT_BAUD
 from .bridge import UARTBridge
 from .pll import ECP5PLL, pll_params
 from .uart import divisor as uart_divisor
 
 __all__ = ["ReplaySystem", "SampleIO", "BoardCore", "BoardTop", "DEFAULT_BAUD"]
 
-DEFAULT_BAUD = 1_000_000      # exact on the ULX3S's FT231X (3 MHz / 3)
 DEFAULT_TIMEOUT_S = 0.02
 
 

@@ -4,10 +4,33 @@ from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array
 from amaranth.lib import wiring, data
 from amaranth.lib.wiring import In, Out
 
-from ..model.regmap import RegisterMap
+from ..model.regmap import RegisterMap, CRC32_POLY
 from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 
-__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout"]
+__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_word_update"]
+
+
+def crc32_word_update(crc, word):
+    """The CRC-32 register (reflected, ``CRC32_POLY``, not inverted) after one
+    32-bit word, least significant bit first (the word's bytes in little-endian
+    order, as ``zlib.crc32`` reads them): ``T(crc ^ word)``, T the 32 shift
+    steps, a linear map over GF(2), so every bit is an XOR of bits of
+    ``crc ^ word``. Starting from ``0xFFFFFFFF``, the register XOR
+    ``0xFFFFFFFF`` is zlib's CRC-32."""
+    def steps(x):
+        for _ in range(32):
+            x = (x >> 1) ^ (CRC32_POLY if x & 1 else 0)
+        return x
+    columns = [steps(1 << j) for j in range(32)]
+    v = crc ^ word
+    bits = []
+    for i in range(32):
+        acc = Const(0, 1)
+        for j in range(32):
+            if columns[j] >> i & 1:
+                acc = acc ^ v[j]
+        bits.append(acc)
+    return Cat(*bits)
 
 
 class BusSignature(wiring.Signature):
@@ -254,6 +277,22 @@ class RegisterFile(wiring.Component):
                     with m.If(strobe[r.addr]):
                         m.d.sync += storage[(r.name, r.channel, f.name)].eq(land_field[(r.addr, f.name)])
 
+        # The stream write path's run since the last STREAM_ADDR write: its
+        # start, words (saturating) and CRC-32 register (zlib's value XOR ones).
+        # A SWAP is taken only if the run is the channel's BASE, LENGTH and CRC.
+        addr = storage[("STREAM_ADDR", None, "addr")]
+        data_w = strobe[rmap.reg("STREAM_DATA").addr]
+        run_start = Signal.like(addr, name="run_start")
+        run_count = Signal(c.length_width, name="run_count")
+        run_crc = Signal(32, init=0xFFFFFFFF, name="run_crc")
+        with m.If(strobe[rmap.reg("STREAM_ADDR").addr]):
+            m.d.sync += [run_start.eq(land_field[(rmap.reg("STREAM_ADDR").addr, "addr")]),
+                         run_count.eq(0), run_crc.eq(0xFFFFFFFF)]
+        with m.Elif(data_w):
+            m.d.sync += [run_crc.eq(crc32_word_update(run_crc, land_data[None])),
+                         run_count.eq(run_count + (run_count != (1 << c.length_width) - 1))]
+        rejected = [Signal(name=f"rejected{l}") for l in range(N)]
+
         # Per channel: what the engine reads, the applied tap, the command.
         for l in range(N):
             ctrl = rmap.reg("CTRL", l)
@@ -265,10 +304,22 @@ class RegisterFile(wiring.Component):
                 m.d.sync += tap.eq(storage[("DELAY", l, "delay")])
             # A CTRL write leaves a command for the channel's next visit; the
             # engine consumes it when it reads the channel (cmd_ack).
+            match = ((run_start == storage[("BASE", l, "base")])
+                     & (run_count == storage[("LENGTH", l, "length")])
+                     & (~run_crc == storage[("CRC", l, "crc")]))
+            if c.slots > 1:
+                # landings are M >= 2 clocks apart: compare a clock early, in a
+                # register, off the path into the command
+                match_q = Signal(name=f"match{l}")
+                m.d.sync += match_q.eq(match)
+                match = match_q
+            swap = lnd[ctrl.field("swap").lsb]
             with m.If(strobe[ctrl.addr]):
                 m.d.sync += [rg.cmd_valid.eq(1),
                              rg.cmd_enable.eq(lnd[ctrl.field("enable").lsb]),
-                             rg.cmd_swap.eq(lnd[ctrl.field("swap").lsb])]
+                             rg.cmd_swap.eq(swap & match)]
+                with m.If(swap):
+                    m.d.sync += rejected[l].eq(~match)
             with m.Elif(self.cmd_ack[l]):
                 m.d.sync += rg.cmd_valid.eq(0)
             m.d.comb += [
@@ -287,8 +338,6 @@ class RegisterFile(wiring.Component):
         m.d.comb += self.common_delay.eq(applied)
 
         # Pool write path, registered.
-        addr = storage[("STREAM_ADDR", None, "addr")]
-        data_w = strobe[rmap.reg("STREAM_DATA").addr]
         m.d.sync += self.wr_en.eq(data_w)
         with m.If(data_w):
             m.d.sync += [self.wr_addr.eq(addr), self.wr_data.eq(land_data[None]), addr.eq(addr + 1)]
@@ -319,9 +368,15 @@ class RegisterFile(wiring.Component):
                     any_bit = True
             return word[:32] if any_bit else None
 
+        hooks_stored = {("STREAM_CRC", None, "crc"): ~run_crc, ("STREAM_COUNT", None, "count"): run_count}
+        for l in range(N):
+            hooks_stored[("CTRL", l, "rejected")] = rejected[l]
+
         def stored(key, f):
             if key in storage:
                 return storage[key]
+            if key in hooks_stored:
+                return hooks_stored[key]
             if f.access == "ro" and key not in hooks_mirror and key not in hooks_status:
                 return Const(f.reset, f.width)
             return None

@@ -23,6 +23,8 @@ Hence an echo of channel l appears ``L + d_c + d_l`` samples after the input,
 ``L = COMMON_LAG + WINDOW_LAG``. Everything before step 0 is zero.
 """
 
+import zlib
+
 import numpy as np
 
 from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
@@ -153,6 +155,12 @@ class ReplayModel:
         self._tables = [None] * N                  # FIR table of the active stream, made on demand
         self._streams = [self.stream_of(l) for l in range(N)]   # the active streams' words
         self.stream_addr = 0
+        # The stream write path's run, which a SWAP is checked against: start
+        # address, words and CRC-32 since the last STREAM_ADDR write.
+        self.run_start, self.run_count, self.run_crc = 0, 0, 0
+        self._count_max = (1 << c.length_width) - 1
+        self.crc_next = [0] * N
+        self.rejected = [0] * N
         self.overflow = 0
         self.steps = 0
         # Per-step histories (lists of arrays, concatenated on demand), kept
@@ -193,9 +201,15 @@ class ReplayModel:
 
         if r.name == "CTRL":
             self.enable[l] = fv("enable")
-            if not self.enable[l] and (fv("swap") or self.pending[l]):
+            swap = fv("swap")
+            if swap:
+                # taken only for the stream just written, whole and intact
+                swap = (self.run_start == self.base_next[l] and self.run_count == self.len_next[l]
+                        and self.run_crc == self.crc_next[l])
+                self.rejected[l] = int(not swap)
+            if not self.enable[l] and (swap or self.pending[l]):
                 self._swap(l)
-            elif fv("swap"):
+            elif swap:
                 self.pending[l] = 1
         elif r.name == "LENGTH":
             self.len_next[l] = fv("length")
@@ -213,9 +227,14 @@ class ReplayModel:
                 self.common_act = self.common_next
         elif r.name == "BASE":
             self.base_next[l] = fv("base")
+        elif r.name == "CRC":
+            self.crc_next[l] = fv("crc")
         elif r.name == "STREAM_ADDR":
             self.stream_addr = fv("addr")
+            self.run_start, self.run_count, self.run_crc = self.stream_addr, 0, 0
         elif r.name == "STREAM_DATA":
+            self.run_crc = zlib.crc32(value.to_bytes(4, "little"), self.run_crc)
+            self.run_count = min(self.run_count + 1, self._count_max)
             # A playing stream's words are the host's to keep (the hardware's
             # cache may already hold them): the model reads them at the switch.
             if self.stream_addr < self.c.pool_words:
@@ -228,14 +247,17 @@ class ReplayModel:
             return 0
         l = r.channel
         if r.name == "CTRL":
-            return self.enable[l] | (self.pending[l] << 1) | (self.bank[l] << 2)
+            return (self.enable[l] | (self.pending[l] << 1) | (self.bank[l] << 2)
+                    | (self.rejected[l] << 3))
         if r.name == "STATUS":
             v, self.overflow = self.overflow, 0
             return v
         stored = {"LENGTH": lambda: self.len_next[l], "PHASE_INC": lambda: self.inc_next[l],
                   "GAIN": lambda: self.gain[l], "DELAY": lambda: self.delay_next[l],
                   "COMMON_DELAY": lambda: self.common_next,
-                  "BASE": lambda: self.base_next[l], "STREAM_ADDR": lambda: self.stream_addr}
+                  "BASE": lambda: self.base_next[l], "STREAM_ADDR": lambda: self.stream_addr,
+                  "CRC": lambda: self.crc_next[l], "STREAM_CRC": lambda: self.run_crc,
+                  "STREAM_COUNT": lambda: self.run_count}
         if r.name in stored:
             return stored[r.name]()
         v = 0

@@ -30,7 +30,7 @@ import struct
 import time
 
 __all__ = ["CMD_WRITE", "CMD_BURST", "CMD_READ", "CMD_VERSION", "ACK", "BRIDGE_ID",
-           "PROTOCOL_VERSION", "TX_FIFO_DEPTH", "MAX_BURST", "ProtocolError",
+           "PROTOCOL_VERSION", "TX_FIFO_DEPTH", "MAX_BURST", "DEFAULT_BAUD", "line_seconds", "ProtocolError",
            "HostBridge", "encode_write", "encode_burst", "encode_read", "group_writes"]
 
 CMD_WRITE = 0x57    # "W"
@@ -43,6 +43,9 @@ BRIDGE_ID = 0x42520000 | PROTOCOL_VERSION   # "BR", version
 TX_FIFO_DEPTH = 16
 MAX_BURST = 0xFFFF
 ADDR_LIMIT = 1 << 16
+#: The line rate of a default build and of ``rast load``: the ULX3S's FT231X
+#: makes 3 Mbaud exactly (its 3 MHz baud clock, divisor 1), the fastest it has.
+DEFAULT_BAUD = 3_000_000
 
 
 class ProtocolError(Exception):
@@ -92,6 +95,13 @@ def group_writes(writes):
             frames.append(encode_write(addr, writes[i][1]))
         i = j
     return frames
+
+
+def line_seconds(writes, baud: int = DEFAULT_BAUD) -> float:
+    """Time the frames of ``writes`` (:func:`group_writes`) take on the line at
+    ``baud``, 10 bits a byte (8N1), host to board; the replies travel the other
+    way at the same time."""
+    return sum(len(f) for f in group_writes(writes)) * 10 / baud
 
 
 class HostBridge:

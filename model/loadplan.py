@@ -8,9 +8,9 @@ from pathlib import Path
 from .fixedpoint import (ReplayContract, GAIN_WIDTH, TARGETS, path_latency, board_input_latency,
                          board_output_latency)
 from .powerup import ChannelInit
-from .regmap import register_map, CTRL_ENABLE, CTRL_SWAP
+from .regmap import register_map, stream_crc32, RegisterMap, CTRL_ENABLE, CTRL_SWAP
 
-__all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "free_region",
+__all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "free_region", "stream_writes",
            "manifest_to_register_writes", "manifest_channel_inits"]
 
 
@@ -161,6 +161,20 @@ def free_region(in_use, length: int, pool_words: int) -> int:
                      f"(in use: {sorted(in_use)})")
 
 
+def stream_writes(rmap: RegisterMap, channel: int, base: int, words, increment: int) -> list:
+    """Register writes ``[(addr, value), ...]`` that put a stream in the pool
+    at ``base`` and name it for ``channel``'s next switch: STREAM_ADDR, every
+    word (STREAM_DATA), BASE, LENGTH, PHASE_INC and CRC (its CRC-32). The
+    switch (CTRL.swap) is the caller's and must come before the next
+    STREAM_ADDR write: the block takes it only for the words written since
+    the last one, all LENGTH of them from BASE, with that CRC-32."""
+    a = rmap.addr
+    words = [int(x) & 0xFFFFFFFF for x in words]
+    return ([(a("STREAM_ADDR"), base)] + [(a("STREAM_DATA"), x) for x in words]
+            + [(a("BASE", channel), base), (a("LENGTH", channel), len(words)),
+               (a("PHASE_INC", channel), increment), (a("CRC", channel), stream_crc32(words))])
+
+
 def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None = None, *,
                                 stream_dir=None, streams=None, target: str = "block") -> list:
     """Register writes ``[(addr, value), ...]`` that load a manifest into a running block.
@@ -189,10 +203,11 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     With ``stream_dir`` (the manifest's folder, to read the ``.hex`` files) or
     ``streams`` (word lists) the streams are written too, one after the other
     from pool address 0 (:func:`pool_layout`): every channel is disabled
-    first (a full load replaces every stream), the words written, then each
-    channel's BASE/LENGTH/PHASE_INC set, switched (at once: disabled) and
-    re-enabled. Without streams only gains and delays are written
-    (BASE/LENGTH/PHASE_INC are not touched).
+    first (a full load replaces every stream), then per channel its words,
+    BASE/LENGTH/PHASE_INC/CRC (:func:`stream_writes`), the switch (at once:
+    disabled; the block checks the stream's CRC-32 first) and the re-enable.
+    Without streams only gains and delays are written (BASE/LENGTH/PHASE_INC
+    are not touched).
     """
     contract = contract or ReplayContract(channels=len(manifest["registers"]["channels"]))
     rmap = register_map(contract)
@@ -203,13 +218,9 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     if words is not None:
         bases = pool_layout([len(x) for x in words], contract.pool_words)
         w += [(a("CTRL", ch), 0) for ch in range(contract.channels)]
-        w.append((a("STREAM_ADDR"), 0))
-        w += [(a("STREAM_DATA"), int(x) & 0xFFFFFFFF) for ws in words for x in ws]
     for ch, v in enumerate(values):
         if words is not None:
-            w.append((a("BASE", ch), bases[ch]))
-            w.append((a("LENGTH", ch), v["length"]))
-            w.append((a("PHASE_INC", ch), v["inc"]))
+            w += stream_writes(rmap, ch, bases[ch], words[ch], v["inc"])
         w.append((a("GAIN", ch), v["gain"]))
         w.append((a("DELAY", ch), v["delay"]))
         if words is not None:

@@ -70,14 +70,27 @@ therefore that many samples later in its period than at power-up.
 While running (live reload, no torn period):
 1. `STREAM_ADDR = a` for a free region of `length` words, then `length`
    writes of STREAM_DATA;
-2. `BASE[l] = a`, `LENGTH[l]`, `PHASE_INC[l]`;
+2. `BASE[l] = a`, `LENGTH[l]`, `PHASE_INC[l]`, `CRC[l]` = the stream's
+   CRC-32 (`rast.model.regmap.stream_crc32`: zlib's, of each word's four
+   bytes, least significant first);
 3. `CTRL[l] = ENABLE|SWAP` - the switch happens in the sample at which the
-   old stream wraps (period boundary); poll CTRL[l] bit 1 until 0: from then
-   the old region is free.
+   old stream wraps (period boundary); poll CTRL[l] until bit 1 (pending)
+   is 0: from then the old region is free. If bit 3 (rejected) is set, the
+   switch was refused and the old stream plays on: write the stream again.
 
-Full load: `CTRL = 0` for every channel, the streams written one after the
-other from address 0, then per channel BASE, LENGTH, PHASE_INC, `CTRL[l] =
-SWAP` (switches at once because the channel is disabled), `CTRL[l] = ENABLE`.
+The check at step 3: the block keeps, for the words written since the last
+STREAM_ADDR write, their start address, their count and their CRC-32
+(readable as STREAM_CRC and STREAM_COUNT), and takes a SWAP only if they are
+BASE[l], LENGTH[l] and CRC[l]. A word lost or damaged on the link, or
+written elsewhere, refuses the switch instead of playing a wrong stream. So
+the SWAP of a stream comes after its words and before the next STREAM_ADDR
+write (`rast.model.loadplan.stream_writes` writes steps 1 and 2). A SWAP that
+is taken clears rejected; one that is refused leaves any earlier pending
+switch as it was.
+
+Full load: `CTRL = 0` for every channel, then per channel its stream (steps
+1 and 2, the streams one after the other from address 0), `CTRL[l] = SWAP`
+(switches at once because the channel is disabled), `CTRL[l] = ENABLE`.
 `manifest_to_register_writes` produces this sequence.
 
 Delays: write COMMON_DELAY and DELAY[l] for any channels, then `APPLY = 1`:

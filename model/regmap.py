@@ -16,13 +16,17 @@ Access kinds of a field:
 ``rc``  sticky status, cleared by a read of its register
 """
 
+import zlib
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS
 from .powerup import ChannelInit
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
-           "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK"]
+           "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED",
+           "CRC32_POLY", "stream_crc32"]
 
 ID_VALUE = 0x52415354          # "RAST"
 CHANNEL_BASE = 0x10
@@ -30,6 +34,17 @@ CHANNEL_STRIDE = 8
 CTRL_ENABLE = 1 << 0
 CTRL_SWAP = 1 << 1
 CTRL_BANK = 1 << 2
+CTRL_REJECTED = 1 << 3
+#: CRC-32 of IEEE 802.3 / zlib, reflected polynomial (the gateware derives its update from it).
+CRC32_POLY = 0xEDB88320
+
+
+def stream_crc32(words, crc: int = 0) -> int:
+    """CRC-32 (zlib's) of stream words as the pool holds them: each 32-bit
+    word (I low, Q high) as four bytes, least significant first; ``crc``
+    continues an earlier value. This is what CH[l].CRC must hold for a switch."""
+    w = np.asarray(words, dtype=np.int64) & 0xFFFFFFFF
+    return zlib.crc32(w.astype("<u4").tobytes(), crc)
 
 
 @dataclass(frozen=True)
@@ -154,6 +169,14 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                              "RTS sample rate the block was built for, Hz "
                                              "(0: not stated)"),),
                  "capability: a manifest for another rate plays every Doppler and range wrong"),
+        Register("STREAM_CRC", 0x0C, (Field("crc", 0, 32, "ro", 0,
+                                            "CRC-32 of the STREAM_DATA words written since the last "
+                                            "STREAM_ADDR write (0 before any)"),),
+                 "stream write path: what a switch is checked against"),
+        Register("STREAM_COUNT", 0x0D, (Field("count", 0, c.length_width, "ro", 0,
+                                              "STREAM_DATA words written since the last STREAM_ADDR "
+                                              "write (stops at the field's largest value)"),),
+                 "stream write path: what a switch is checked against"),
     ]
     for ch in range(c.channels):
         base = CHANNEL_BASE + CHANNEL_STRIDE * ch
@@ -166,7 +189,12 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                 Field("swap", 1, 1, "wo", 0,
                       "write 1: switch to BASE/LENGTH/PHASE_INC at the next period boundary (at once "
                       "if the write leaves the channel disabled); reads 1 while pending"),
-                Field("bank", 2, 1, "ro", 0, "toggles at every switch")), "channel control", ch),
+                Field("bank", 2, 1, "ro", 0, "toggles at every switch"),
+                Field("rejected", 3, 1, "ro", 0,
+                      "the last SWAP written was refused: the words written since the last "
+                      "STREAM_ADDR write are not LENGTH words from BASE with CRC-32 = CRC; the old "
+                      "stream keeps playing (cleared by a SWAP that is taken)")),
+                     "channel control", ch),
             Register("LENGTH", base + 1, (Field("length", 0, c.length_width, "rw",
                                                 min(max(ini.length, c.min_stream_length), c.pool_words),
                                                 f"stream length in words for the next switch "
@@ -193,6 +221,11 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                               "pool address of word 0 of the stream for the next "
                                               "switch"),),
                      "latched into the stream at the switch", ch),
+            Register("CRC", base + 6, (Field("crc", 0, 32, "rw", 0,
+                                             "CRC-32 (zlib) of the stream for the next switch: a SWAP "
+                                             "is taken only if it equals STREAM_CRC and BASE and LENGTH "
+                                             "are STREAM_ADDR's start and STREAM_COUNT"),),
+                     "checked at the switch", ch),
         ]
     return RegisterMap(c, regs)
 

@@ -34,7 +34,7 @@ def add_arguments(p):
     d.add_argument("--clock-mhz", type=float, default=dflt.clock_mhz,
                    help=f"fabric clock, MHz: a whole multiple M of the sample rate; each pipeline "
                         f"serves M channels (default {dflt.clock_mhz:g})")
-    d.add_argument("--baud", type=int, default=1_000_000, help="host UART baud rate (default 1000000)")
+    d.add_argument("--baud", type=int, default=dflt.baud, help=f"host UART baud rate (default {dflt.baud})")
     p.add_argument("--seed", type=int, default=1, help="nextpnr placer seed (default 1)")
     p.add_argument("--out", required=True, help="output folder (bitstream, logs, report.json)")
     p.add_argument("--quiet", action="store_true", help="no progress output")

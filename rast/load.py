@@ -3,8 +3,9 @@
 ``rast load MANIFEST_DIR --port /dev/ttyUSB0`` asks the bitstream for its
 configuration (channel count, pool words, delays, latency), disables every
 channel, writes every windmill's stream into the stream pool, switches each
-channel to its stream, sets gains and delays, reads them back and prints the
-status (overflow flag, versions).
+channel to its stream (the block takes a switch only if the words it received
+have the stream's CRC-32), sets gains and delays, reads them back, checks
+that no switch was refused and prints the status (overflow flag, versions).
 """
 
 import os
@@ -13,8 +14,8 @@ import time
 
 from rast.errors import UserError, manifest_streams, read_manifest
 from rast.model.fixedpoint import INTERPOLATIONS, ReplayContract
-from rast.model.hostproto import HostBridge, BRIDGE_ID, ProtocolError
-from rast.model.regmap import ID_VALUE, register_map, CTRL_ENABLE
+from rast.model.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, ProtocolError, line_seconds
+from rast.model.regmap import ID_VALUE, register_map, CTRL_ENABLE, CTRL_REJECTED
 from rast.model.loadplan import manifest_to_register_writes
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
@@ -116,6 +117,15 @@ def send_writes(bridge, writes, contract, progress=None, *, channels=None):
             mismatches.append(f"{r.name}[{r.channel}] reads {got:#x}, wrote {v:#x}")
     if mismatches:
         raise LoadError("Read-back differs: " + "; ".join(mismatches))
+    # every switch asked for was taken: the words the block received had the CRC-32 sent
+    crc_written = {rmap.by_addr(a).channel: v for a, v in writes if rmap.by_addr(a) is not None
+                   and rmap.by_addr(a).name == "CRC"}
+    refused = [f"channel {ch} (CRC-32 {crc:#010x})" for ch, crc in sorted(crc_written.items())
+               if bridge.read(rmap.addr("CTRL", ch)) & CTRL_REJECTED]
+    if refused:
+        raise LoadError("The block refused the stream of " + ", ".join(refused) + ": the words it "
+                        "received differ from the stream (a word lost or damaged on the line); those "
+                        "channels play their old streams. Load again.")
     n_words = sum(1 for a, _ in writes if a == rmap.addr("STREAM_DATA"))
     return {"writes": len(writes), "stream_words": n_words, "seconds": dt, "channels": channels}
 
@@ -128,7 +138,8 @@ def read_status(bridge, contract):
     for ch in range(contract.channels):
         ctrl = bridge.read(rmap.addr("CTRL", ch))
         st["channels"].append({"enable": ctrl & CTRL_ENABLE, "swap_pending": ctrl >> 1 & 1,
-                               "bank": ctrl >> 2 & 1, "gain": bridge.read(rmap.addr("GAIN", ch)),
+                               "bank": ctrl >> 2 & 1, "rejected": ctrl >> 3 & 1,
+                               "gain": bridge.read(rmap.addr("GAIN", ch)),
                                "delay": bridge.read(rmap.addr("DELAY", ch))})
     return st
 
@@ -136,7 +147,9 @@ def read_status(bridge, contract):
 def add_arguments(p):
     p.add_argument("manifest_dir", nargs="?", help="folder written by `rast stream` (manifest.json, *.hex), or its manifest.json")
     p.add_argument("--port", required=True, help="serial port of the board, e.g. /dev/ttyUSB0")
-    p.add_argument("--baud", type=int, default=1_000_000, help="bridge baud rate (default 1000000)")
+    p.add_argument("--baud", type=int, default=DEFAULT_BAUD,
+                   help=f"bridge baud rate (default {DEFAULT_BAUD}: the FT231X's fastest; give the "
+                        "bitstream's, `rast build --baud`)")
     p.add_argument("--no-streams", action="store_true",
                    help="write gains and delays only, not the streams")
     p.add_argument("--status", action="store_true", help="only read and print the status")
@@ -147,7 +160,8 @@ def _print_status(st):
           f"latency {st['latency']} samples, overflow {'SET' if st['overflow'] else 'clear'}")
     for k, ch in enumerate(st["channels"]):
         print(f"  channel {k}: {'on ' if ch['enable'] else 'off'} bank {ch['bank']} "
-              f"gain {ch['gain']:#07x} delay {ch['delay']}{' (swap pending)' if ch['swap_pending'] else ''}")
+              f"gain {ch['gain']:#07x} delay {ch['delay']}{' (swap pending)' if ch['swap_pending'] else ''}"
+              f"{' (last switch refused: stream CRC-32)' if ch['rejected'] else ''}")
 
 
 def run(args) -> int:
@@ -180,8 +194,11 @@ def run(args) -> int:
                         print(f"\r  {done}/{total} writes", end="", flush=True)
                 res = send_writes(bridge, writes, contract, progress,
                                   channels=len(manifest["registers"]["channels"]))
+                rate = res["stream_words"] / res["seconds"] if res["seconds"] > 0 else 0.0
                 print(f"\nloaded {res['channels']} windmill(s), {res['stream_words']} stream words "
-                      f"in {res['seconds']:.1f} s; read-back matches")
+                      f"in {res['seconds']:.1f} s ({rate / 1e3:.1f} k words/s, "
+                      f"{line_seconds(writes, args.baud):.1f} s of line time at {args.baud} baud); "
+                      f"read-back matches, every stream's CRC-32 checked by the block")
             _print_status(read_status(bridge, contract))
     except (LoadError, ProtocolError, ValueError, OSError) as e:
         print(f"rast load: {e}", file=sys.stderr)

@@ -21,7 +21,7 @@ from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract
 from rast.model.pulses import PulseConfig, generate
 from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
-from rast.model.loadplan import manifest_to_register_writes, pool_layout, free_region
+from rast.model.loadplan import manifest_to_register_writes, pool_layout, free_region, stream_writes
 
 from .bulk import BulkJob
 
@@ -147,19 +147,33 @@ class PoolTracker:
         self.playing[ch] = [(base, length)] if force else self.playing[ch] + [(base, length)]
         return base
 
+    def refused(self, ch, named_before):
+        """The switch to the stream just placed for ``ch`` is refused (its CRC):
+        its region is free again and the channel goes on as before."""
+        self.playing[ch].remove(self.named[ch])
+        self.named[ch] = named_before
+
     def forced_switch(self, ch):
         self.playing[ch] = [self.named[ch]] if self.named[ch] else []
 
 
-def _stream_load(rmap, ch, words, length, inc, base, enable=True, force=False):
+def _stream_load(rmap, ch, words, length, inc, base, enable=True, force=False, corrupt=None):
     """Write a stream into the pool at ``base`` and switch channel ``ch`` to it:
     at the active stream's next period boundary, or at once (``force``:
-    disable, switch, re-enable, as a host does at start-up)."""
+    disable, switch, re-enable, as a host does at start-up). A stream shorter
+    than the shortest LENGTH is written padded with zeros to it (the block
+    takes a switch only for LENGTH words written). ``corrupt`` (a word index)
+    flips one bit of that word on its way, after the CRC-32 was computed: the
+    block must refuse the switch and keep playing the old stream."""
     a = rmap.addr
+    n = max(length, rmap.contract.min_stream_length)
+    words = [int(x) & 0xFFFFFFFF for x in words[:length]] + [0] * (n - min(length, len(words)))
     w = [(a("CTRL", ch), 0)] if force else []
-    w += [(a("STREAM_ADDR"), base)]
-    w += [(a("STREAM_DATA"), int(x) & 0xFFFFFFFF) for x in words]
-    w += [(a("BASE", ch), base), (a("LENGTH", ch), length), (a("PHASE_INC", ch), inc)]
+    load = stream_writes(rmap, ch, base, words, inc)
+    if corrupt is not None:
+        addr, value = load[1 + corrupt]
+        load[1 + corrupt] = (addr, value ^ 1 << 7)
+    w += load
     if force:
         w += [(a("CTRL", ch), CTRL_SWAP), (a("CTRL", ch), CTRL_ENABLE if enable else 0)]
     else:
@@ -211,7 +225,9 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
                     stall_thresh: int = 48, mid_run_writes: int = 8, contract: dict | None = None) -> Scenario:
     """Random streams, delays, gains and enables, and random register writes at
     random samples mid-run (gains, enables, delays with APPLY, stream reloads
-    with a bank switch at the period boundary, forced switches).
+    with a bank switch at the period boundary, a quarter of them with a bit
+    flipped on the way so that the block refuses them by their CRC-32, forced
+    switches, taken only when the channel's stream was the last one written).
 
     ``kind="saturate"``: full-scale input, full-scale stream words and gains
     near the maximum, so that the channel sum saturates (and the sticky
@@ -255,10 +271,15 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
             regs.append((at, a("APPLY"), 1))
         elif what == 3 or what == 4:                                            # stream reload
             length = int(rng.integers(1, 1024)) if rng.random() < 0.3 else int(rng.integers(1, 64))
+            named = pool.named[ch]
             base = pool.place(ch, length)
             if base is not None:
+                # one reload in four loses a bit on the way: refused, the old stream plays on
+                bad = int(rng.integers(0, length)) if rng.random() < 0.25 else None
                 regs += [(at, *w) for w in _stream_load(rmap, ch, _random_words(rng, length, full),
-                                                       length, _random_inc(rng), base)]
+                                                       length, _random_inc(rng), base, corrupt=bad)]
+                if bad is not None:
+                    pool.refused(ch, named)
         else:                                                                   # forced switch
             regs += [(at, a("CTRL", ch), 0), (at, a("CTRL", ch), CTRL_SWAP),
                      (at, a("CTRL", ch), CTRL_ENABLE)]

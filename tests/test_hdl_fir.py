@@ -9,7 +9,7 @@ from rast.hdl.replay_top import WindFarmReplay
 from rast.model import datapath as dp
 from rast.model.fixedpoint import (pack_iq, FIR_MAX_INCREMENT, FIR_MIN_LENGTH, FIR_REFILL_SAMPLES,
                                    FIR_PHASES, PHASE_FRAC_BITS, STREAM)
-from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP
+from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, stream_crc32
 from rast.model.powerup import ChannelInit
 
 from hdl_harness import run_replay, model_replay, assert_same
@@ -74,10 +74,12 @@ def test_fir_reloads_and_forced_switches_match_model(seed, slots):
         length = int(rng.integers(1, 20))
         base = pool.place(l, max(length, 8)) if r == 0 else None
         if r == 0 and base is not None:  # reload, switch at the period boundary
+            words = rng.integers(0, 1 << 32, max(length, 8))
             ops += [(k, "w", a("STREAM_ADDR"), base)]
-            ops += [(k, "w", a("STREAM_DATA"), int(rng.integers(0, 1 << 32))) for _ in range(max(length, 8))]
+            ops += [(k, "w", a("STREAM_DATA"), int(w)) for w in words]
             ops += [(k, "w", a("BASE", l), base), (k, "w", a("LENGTH", l), length),     # clamped to 8..
                     (k, "w", a("PHASE_INC", l), int(rng.integers(1 << 20, 1 << 32))),  # clamped
+                    (k, "w", a("CRC", l), stream_crc32(words)),
                     (k, "w", a("CTRL", l), CTRL_ENABLE | CTRL_SWAP)]
         elif r == 1:                     # forced switch (disabled channel)
             ops += [(k, "w", a("CTRL", l), CTRL_SWAP), (k + 1, "w", a("CTRL", l), CTRL_ENABLE)]

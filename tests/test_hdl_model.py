@@ -9,6 +9,7 @@ import pytest
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract, pack_iq
 from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP
+from rast.model.loadplan import stream_writes
 from rast.model.powerup import ChannelInit
 
 
@@ -35,11 +36,10 @@ def _random_session(seed, lookback=None):
         elif r == 1:
             m.write(a("GAIN", l), int(rng.integers(0, 1 << 17)))
         elif r == 2:
-            m.write(a("STREAM_ADDR"), int(rng.integers(0, 32)))
-            for _ in range(3):
-                m.write(a("STREAM_DATA"), int(rng.integers(0, 1 << 32)))
-            m.write(a("BASE", l), int(rng.integers(0, 32)))
-            m.write(a("LENGTH", l), int(rng.integers(1, 9)))
+            n = c.min_stream_length + int(rng.integers(0, 3))
+            for addr, value in stream_writes(m.rmap, l, int(rng.integers(0, 32 - n)),
+                                             rng.integers(0, 1 << 32, n), int(rng.integers(0, 1 << 28))):
+                m.write(addr, value)
             m.write(a("CTRL", l), CTRL_ENABLE | CTRL_SWAP)
         elif r == 3:
             m.write(a("CTRL", l), int(rng.integers(0, 4)))

@@ -9,7 +9,7 @@ import pytest
 from rast.hdl.replay_top import WindFarmReplay
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import pack_iq, unpack_iq, ReplayContract
-from rast.model.regmap import register_map, ID_VALUE, CTRL_ENABLE, CTRL_SWAP, CTRL_BANK
+from rast.model.regmap import register_map, stream_crc32, ID_VALUE, CTRL_ENABLE, CTRL_SWAP, CTRL_BANK, CTRL_REJECTED
 from rast.model.loadplan import manifest_to_register_writes, manifest_channel_inits
 from rast.model.powerup import ChannelInit
 
@@ -209,7 +209,7 @@ def test_switch_at_period_boundary(slots):
     ops = [(k0, "w", a("STREAM_ADDR"), 100)]
     ops += [(k0 + 1, "w", a("STREAM_DATA"), int(w)) for w in new]
     ops += [(k0 + 2, "w", a("BASE", 0), 100), (k0 + 2, "w", a("LENGTH", 0), length_new),
-            (k0 + 2, "w", a("PHASE_INC", 0), 1 << 31),
+            (k0 + 2, "w", a("PHASE_INC", 0), 1 << 31), (k0 + 2, "w", a("CRC", 0), stream_crc32(new)),
             (k0 + 3, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k0 + 3, "r", a("CTRL", 0), 0),
             (k0 + 50, "r", a("CTRL", 0), 0), (k0 + 50, "r", a("BASE", 0), 0)]
     hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 0, 1, 1), name="switch")
@@ -225,6 +225,52 @@ def test_switch_at_period_boundary(slots):
     assert not out[first_new - R:first_new].any(), "not muted while the cache refills"
     assert out[first_new] == -250, "new stream does not start at word 0"
     assert set(out[first_new:].tolist()) == {-250, -500, -750}
+
+
+@pytest.mark.parametrize("slots, damage", [(1, "bit"), (3, "bit"), (1, "lost word"), (3, "moved")])
+def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, damage):
+    """A reload whose words are not the ones its CRC-32 names (a bit flipped,
+    a word lost, the words written elsewhere than BASE) is refused at the
+    SWAP: CTRL reads rejected and no pending switch, the old stream plays on,
+    STREAM_CRC/STREAM_COUNT say what arrived (zlib's CRC of it). Sent again
+    intact, the stream is taken and rejected clears. Gateware and model equal."""
+    length_old, length_new = 5, 4
+    old = pack_iq([1000 * (k + 1) for k in range(length_old)], [0] * length_old)
+    new = [int(w) for w in pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)]
+    inits = [ChannelInit(tuple(int(w) for w in old), 3 << 30, 1 << 16, 0, True)]
+    dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
+    a = dut.register_map.addr
+    R = dut.contract.refill_samples
+    T = 3 * R + 200
+    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    sent, start = list(new), 100
+    if damage == "bit":
+        sent[2] ^= 1 << 20
+    elif damage == "lost word":
+        del sent[1]
+    else:
+        start = 101
+    k0, k1 = R + 10, 2 * R + 60
+
+    def load(k, words, at):
+        return ([(k, "w", a("STREAM_ADDR"), at)] + [(k, "w", a("STREAM_DATA"), w) for w in words]
+                + [(k, "w", a("BASE", 0), 100), (k, "w", a("LENGTH", 0), length_new),
+                   (k, "w", a("PHASE_INC", 0), 1 << 31), (k, "w", a("CRC", 0), stream_crc32(new)),
+                   (k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "r", a("CTRL", 0), 0),
+                   (k, "r", a("STREAM_CRC"), 0), (k, "r", a("STREAM_COUNT"), 0)])
+    ops = load(k0, sent, start) + [(k1 - 5, "r", a("CTRL", 0), 0)] + load(k1, new, 100)
+    ops += [(T - 5, "r", a("CTRL", 0), 0)]
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, name=f"damaged {damage}")
+    reads = [v for k, kind, ad, v in done if kind == "r"]
+    assert reads[:3] == [CTRL_ENABLE | CTRL_REJECTED, stream_crc32(sent), len(sent)]
+    assert reads[3] == CTRL_ENABLE | CTRL_REJECTED            # still the old stream, nothing pending
+    assert reads[4:7] == [CTRL_ENABLE | CTRL_SWAP, stream_crc32(new), length_new]   # intact: taken
+    assert reads[7] == CTRL_ENABLE | CTRL_BANK                # switched, rejected cleared
+    L = dut.latency
+    before = hi[L + R:L + k1]
+    assert before.min() > 0 and set(before.tolist()) <= {500, 1000, 1500, 2000, 2500}, \
+        "the refused stream played"
+    assert set(hi[L + k1 + 2 * R + 10:].tolist()) == {-250, -500, -750, -1000}
 
 
 @pytest.mark.parametrize("slots", [1, 2])
@@ -266,9 +312,12 @@ def test_manifest_register_writes_place_echoes(slots):
 @pytest.mark.parametrize("seed, slots", [(1, 1), (2, 1), (3, 2), (4, 3), (5, 2)])
 def test_random_register_stress(seed, slots):
     """Dense random register traffic (stream writes, switches forced and at
-    wraps, base/rate/length changes, delays, status reads) racing the samples.
-    Stream words are written only where no channel can play (the pool's upper
-    half): a playing stream's words are the host's to keep."""
+    wraps, taken or refused by the stream check, base/rate/length/CRC changes,
+    delays, status reads) racing the samples. New stream words are written
+    only where no channel can play (the pool's upper half): a playing stream's
+    words are the host's to keep. Switches are taken after a "reseal": the
+    words already in the pool's lower half written again (the pool does not
+    change), then BASE, LENGTH and CRC naming them."""
     rng = np.random.default_rng(100 + seed)
     N = 2
     kw = dict(pool_words=32, max_delay=5, max_tap=3)
@@ -277,12 +326,21 @@ def test_random_register_stress(seed, slots):
     a = dut.register_map.addr
     T = 500
     xi = rng.integers(-32768, 32768, T); xq = rng.integers(-32768, 32768, T)
+    lower = ReplayModel(dut.contract, inits).pool[:16]
     ops = []
     for k in sorted(rng.integers(0, T, 400).tolist()):
         l = int(rng.integers(0, N))
-        r = rng.integers(0, 10)
+        r = rng.integers(0, 11)
         if r == 0:
             ops.append((k, "w", a("CTRL", l), int(rng.integers(0, 4))))
+        elif r == 10:
+            b = int(rng.choice([0, 4, 8]))
+            n = int(rng.integers(1, 7))
+            ops += [(k, "w", a("STREAM_ADDR"), b)] + [(k, "w", a("STREAM_DATA"), int(w))
+                                                      for w in lower[b:b + n]]
+            ops += [(k, "w", a("BASE", l), b), (k, "w", a("LENGTH", l), n),
+                    (k, "w", a("CRC", l), stream_crc32(lower[b:b + n])),
+                    (k, "w", a("CTRL", l), int(rng.integers(2, 4)))]
         elif r == 1:
             ops.append((k, "w", a("BASE", l), int(rng.choice([0, 4, 8]))))
         elif r in (2, 3):
@@ -295,7 +353,7 @@ def test_random_register_stress(seed, slots):
         elif r == 6:
             ops.append((k, "w", a("GAIN", l), int(rng.integers(1 << 16, 1 << 17))))
         elif r == 7:
-            ops.append((k, "r", a("STATUS"), 0))
+            ops += [(k, "r", a("STATUS"), 0), (k, "r", a("STREAM_CRC"), 0), (k, "r", a("STREAM_COUNT"), 0)]
         elif r == 8:
             ops.append((k, "r", a("CTRL", l), 0))
         else:
@@ -317,7 +375,8 @@ def test_forced_switch_racing_a_wrap(slots):
     T = 11 * (R + 6)
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     ops = [(0, "w", a("STREAM_ADDR"), 8), (0, "w", a("STREAM_DATA"), words[1]),
-           (0, "w", a("BASE", 0), 8), (0, "w", a("LENGTH", 0), 1)]
+           (0, "w", a("BASE", 0), 8), (0, "w", a("LENGTH", 0), 1),
+           (0, "w", a("CRC", 0), stream_crc32(words[1:2]))]
     for k in range(R + 5, 11 * (R + 6) - 10, R + 6):
         ops += [(k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "w", a("CTRL", 0), CTRL_SWAP),
                 (k, "r", a("CTRL", 0), 0), (k, "w", a("CTRL", 0), CTRL_ENABLE)]

@@ -18,7 +18,7 @@ from rast.errors import UserError
 from rast.load import read_contract, load_manifest, read_status, LoadError
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.hostproto import (HostBridge, BRIDGE_ID, ProtocolError, encode_write,
+from rast.model.hostproto import (HostBridge, BRIDGE_ID, ProtocolError, encode_write, CMD_BURST,
                                   encode_read, encode_burst, group_writes, CMD_WRITE)
 from rast.model.regmap import ID_VALUE, register_map
 
@@ -216,3 +216,40 @@ def test_load_refuses_streams_that_do_not_fit(tmp_path):
 def test_load_refuses_streams_made_for_another_interpolation(tmp_path):
     msg, writes = _refused(tmp_path, lambda m, _: m.update(interpolation="hold"))
     assert "made for hold interpolation" in msg and "interpolates with fir" in msg and not writes
+
+
+def test_a_word_damaged_on_the_line_is_refused_and_reported(tmp_path):
+    """One bit of one stream word flipped on the line (the frame still well
+    formed): the block refuses that channel's switch by the stream's CRC-32,
+    ``rast load`` says which channel and why, the status shows it, and the
+    other channel's stream is taken."""
+    rng = np.random.default_rng(5)
+    _manifest(tmp_path, rng)
+    sys_ = make_system()
+    uart = SimUART(sys_, DIV)
+
+    class Damaging:
+        """The line: flips bit 2 of the 3rd word of the first stream burst."""
+        def __init__(self, line):
+            self.line, self.hit = line, False
+
+        def write(self, frame):
+            if not self.hit and frame[:1] == bytes([CMD_BURST]):
+                frame = bytearray(frame)
+                frame[5 + 4 * 2] ^= 0x04
+                frame, self.hit = bytes(frame), True
+            return self.line.write(frame)
+
+        def read(self, n):
+            return self.line.read(n)
+
+    line = Damaging(uart)
+    br = HostBridge(line)
+    c = read_contract(br)
+    with pytest.raises(LoadError, match=r"refused the stream of channel 0 \(CRC-32 0x[0-9a-f]{8}\): "
+                                        r"the words it received differ"):
+        load_manifest(br, tmp_path, c)
+    assert line.hit
+    st = read_status(br, c)
+    assert [ch["rejected"] for ch in st["channels"]] == [1, 0]
+    assert [ch["bank"] for ch in st["channels"]] == [0, 1]      # channel 0 never switched
