@@ -28,6 +28,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python bench/bench_streams.py
 	$(BIN)/python bench/bench_interpolation.py
+	$(BIN)/python bench/bench_load.py
 
 bench-cosim: $(STAMP)
 	$(BIN)/python bench/bench_cosim.py

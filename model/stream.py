@@ -34,6 +34,7 @@ from . import fixedpoint as fx
 from .config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
 from .synthesis import ComputePool, Synthesis, synthesise_period
 from .turbine import max_doppler_hz
+from .regmap import stream_crc32
 
 __all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams", "EchoSum",
            "plan_stream", "stream_times", "quantise", "quantise_words", "build_farm_streams",
@@ -365,6 +366,9 @@ class FarmStreams:
                 "period_s": s.plan.period_s,
                 "max_doppler_hz": s.plan.max_doppler_hz,
                 "phase_increment": s.plan.phase_increment,
+                # what the block checks a switch against (CH[l].CRC), and the
+                # loaders check the stream file against
+                "crc32": stream_crc32(s.words),
                 "delay_samples": s.delay_samples,
                 "tap": s.tap,
                 "relative_amplitude": s.relative_amplitude,

@@ -14,6 +14,8 @@ import os
 import re
 from pathlib import Path
 
+from rast.model.regmap import stream_crc32
+
 __all__ = ["UserError", "read_json", "read_manifest", "manifest_streams", "check_output"]
 
 _HEX_WORD = re.compile(r"[0-9a-fA-F]{1,8}")
@@ -86,6 +88,8 @@ def read_manifest(path) -> tuple[dict, Path]:
         for key, kind in (("name", str), ("hex_file", str)):
             _need(isinstance(w.get(key), kind), at, f"lacks the text '{key}'")
         _need(_is_int(w.get("length")) and w["length"] >= 1, at, "lacks a positive integer 'length'")
+        _need("crc32" not in w or (_is_int(w["crc32"]) and 0 <= w["crc32"] <= 0xFFFFFFFF), at,
+              f"has a 'crc32' that is not a 32-bit unsigned integer: {w.get('crc32')!r}")
         names[w["name"]] = w
     registers = manifest.get("registers")
     channels = registers.get("channels") if isinstance(registers, dict) else None
@@ -131,6 +135,10 @@ def manifest_streams(manifest: dict, folder) -> list[list[int]]:
             words.append(int(text, 16))
         if len(words) != ch["length"]:
             raise UserError(f"{path} has {len(words)} words, the manifest says {ch['length']}")
+        want = by_name[ch["windmill"]].get("crc32")       # manifests before the CRC have none
+        if want is not None and stream_crc32(words) != want:
+            raise UserError(f"{path} has CRC-32 {stream_crc32(words):#010x}, the manifest says "
+                            f"{int(want):#010x}: the file changed after `rast stream` wrote it")
         streams.append(words)
     return streams
 

@@ -14,6 +14,7 @@ import pytest
 
 from rast.cli import main
 from rast.model.fixedpoint import ReplayContract, pack_iq
+from rast.model.regmap import stream_crc32
 
 CONFIG = ('sample_rate = 20\nradar_frequency = 5350\n'
           '[[windmill]]\nname = "a"\nrange = 2.0\nnum_blades = 3\nrpm = 15\nradius = [26.0]\nrsc = [1.0]\n')
@@ -223,6 +224,29 @@ def test_verilog_stream_file_wrong_length(tmp_path, capsys):
     hexfile = tmp_path / "m" / "w0.hex"
     hexfile.write_text("".join(hexfile.read_text().splitlines(keepends=True)[:2]))
     verilog_error(capsys, tmp_path, ["--manifest", path], "w0.hex has 2 words, the manifest says 3")
+
+
+def test_verilog_stream_file_changed_after_its_crc(tmp_path, capsys):
+    """A stream file edited after `rast stream` wrote it (same length, one word
+    changed) no longer has the manifest's CRC-32: refused, naming both."""
+    path = write_manifest(tmp_path / "m", lengths=(3,))
+    m = json.loads(path.read_text())
+    hexfile = tmp_path / "m" / "w0.hex"
+    words = [int(x, 16) for x in hexfile.read_text().split()]
+    m["windmills"][0]["crc32"] = stream_crc32(words)
+    path.write_text(json.dumps(m))
+    hexfile.write_text("".join(f"{w ^ (k == 1):08x}\n" for k, w in enumerate(words)))
+    verilog_error(capsys, tmp_path, ["--manifest", path], "w0.hex has CRC-32",
+                  f"the manifest says {stream_crc32(words):#010x}", "the file changed after `rast stream`")
+
+
+def test_manifest_with_a_crc_that_is_no_32_bit_word(tmp_path, capsys):
+    path = write_manifest(tmp_path / "m")
+    m = json.loads(path.read_text())
+    m["windmills"][0]["crc32"] = -1
+    path.write_text(json.dumps(m))
+    verilog_error(capsys, tmp_path, ["--manifest", path], "windmills[0]",
+                  "'crc32' that is not a 32-bit unsigned integer: -1")
 
 
 def test_verilog_manifest_does_not_fit(tmp_path, capsys):

@@ -2,6 +2,7 @@
 
 import json
 import math
+import zlib
 from fractions import Fraction
 
 import numpy as np
@@ -162,6 +163,8 @@ def test_files_read_back_as_the_same_integers(tmp_path):
     entry = manifest["windmills"][0]
     assert entry["length"] == s.plan.length and entry["hex_file"] == "w.hex"
     assert entry["gain_word"] == manifest["registers"]["channels"][0]["gain"]
+    # the stream's CRC-32 (what the block checks a switch against) is zlib's of the .bin file
+    assert entry["crc32"] == zlib.crc32(written["w.bin"].read_bytes())
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".rast-staging")]
 
 
