@@ -7,22 +7,21 @@ from amaranth.lib.wiring import In, Out
 from ..model.regmap import RegisterMap, CRC32_POLY
 from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 
-__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_word_update"]
+__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_shift"]
 
 
-def crc32_word_update(crc, word):
-    """The CRC-32 register (reflected, ``CRC32_POLY``, not inverted) after one
-    32-bit word, least significant bit first (the word's bytes in little-endian
-    order, as ``zlib.crc32`` reads them): ``T(crc ^ word)``, T the 32 shift
-    steps, a linear map over GF(2), so every bit is an XOR of bits of
-    ``crc ^ word``. Starting from ``0xFFFFFFFF``, the register XOR
-    ``0xFFFFFFFF`` is zlib's CRC-32."""
+def crc32_shift(v):
+    """``T(v)``: the CRC-32 register (reflected, ``CRC32_POLY``, not inverted)
+    after 32 bits shifted in from the register value ``v``, least significant
+    first. T is linear over GF(2): every bit an XOR of bits of ``v``. One word
+    updates the register as ``T(crc ^ word) = T(crc) ^ T(word)`` (the word's
+    bytes in little-endian order, as ``zlib.crc32`` reads them); from
+    ``0xFFFFFFFF``, the register XOR ``0xFFFFFFFF`` is zlib's CRC-32."""
     def steps(x):
         for _ in range(32):
             x = (x >> 1) ^ (CRC32_POLY if x & 1 else 0)
         return x
     columns = [steps(1 << j) for j in range(32)]
-    v = crc ^ word
     bits = []
     for i in range(32):
         acc = Const(0, 1)
@@ -85,6 +84,12 @@ class RegisterFile(wiring.Component):
     overflow flag in cycle ``t + status_delay`` (clearing it there), so that
     every part of the answer is the state between the same two steps; the
     answer is on ``r_data`` with ``r_valid`` ``read_latency`` cycles after t.
+
+    The stream check: the start address, count and CRC-32 of the STREAM_DATA
+    words landed since the last STREAM_ADDR write are kept; a CTRL write's
+    swap reaches the engine only if they equal the channel's BASE, LENGTH and
+    CRC as stored before it landed, and sets the channel's CTRL.rejected
+    otherwise (``docs/registers.md``; the model: ``ReplayModel.write``).
 
     Parameters
     ----------
@@ -285,11 +290,16 @@ class RegisterFile(wiring.Component):
         run_start = Signal.like(addr, name="run_start")
         run_count = Signal(c.length_width, name="run_count")
         run_crc = Signal(32, init=0xFFFFFFFF, name="run_crc")
+        # The word's half of the update, T(word), a clock before it lands (the
+        # whole update in the loop, T(crc ^ word), would not route: one
+        # all-to-all XOR network, router1 went on for over 15 minutes).
+        word_t = Signal(32, name="run_crc_word")
+        m.d.sync += word_t.eq(crc32_shift(before.data))
         with m.If(strobe[rmap.reg("STREAM_ADDR").addr]):
             m.d.sync += [run_start.eq(land_field[(rmap.reg("STREAM_ADDR").addr, "addr")]),
                          run_count.eq(0), run_crc.eq(0xFFFFFFFF)]
         with m.Elif(data_w):
-            m.d.sync += [run_crc.eq(crc32_word_update(run_crc, land_data[None])),
+            m.d.sync += [run_crc.eq(crc32_shift(run_crc) ^ word_t),
                          run_count.eq(run_count + (run_count != (1 << c.length_width) - 1))]
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
 
