@@ -7,29 +7,42 @@ from amaranth.lib.wiring import In, Out
 from ..model.regmap import RegisterMap, CRC32_POLY
 from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 
-__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_shift"]
+__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks"]
 
 
-def crc32_shift(v):
-    """``T(v)``: the CRC-32 register (reflected, ``CRC32_POLY``, not inverted)
-    after 32 bits shifted in from the register value ``v``, least significant
-    first. T is linear over GF(2): every bit an XOR of bits of ``v``. One word
-    updates the register as ``T(crc ^ word) = T(crc) ^ T(word)`` (the word's
-    bytes in little-endian order, as ``zlib.crc32`` reads them); from
-    ``0xFFFFFFFF``, the register XOR ``0xFFFFFFFF`` is zlib's CRC-32."""
+def crc32_step(crc, bits):
+    """The CRC-32 register (reflected, ``CRC32_POLY``, not inverted) after the
+    value ``bits`` (b of them) shifted in, least significant first:
+    ``(crc >> b) ^ T_b(crc[:b] ^ bits)``, T_b linear over GF(2), so every bit is
+    one bit of ``crc`` XOR a few of the b bits. A word is its four bytes in
+    little-endian order, as ``zlib.crc32`` reads them; from ``0xFFFFFFFF``, the
+    register XOR ``0xFFFFFFFF`` is zlib's CRC-32."""
+    b = len(bits)
+
     def steps(x):
-        for _ in range(32):
+        for _ in range(b):
             x = (x >> 1) ^ (CRC32_POLY if x & 1 else 0)
         return x
-    columns = [steps(1 << j) for j in range(32)]
-    bits = []
+    columns = [steps(1 << j) for j in range(b)]
+    v = crc[:b] ^ bits
+    out = []
     for i in range(32):
-        acc = Const(0, 1)
-        for j in range(32):
+        acc = crc[i + b] if i + b < 32 else Const(0, 1)
+        for j in range(b):
             if columns[j] >> i & 1:
                 acc = acc ^ v[j]
-        bits.append(acc)
-    return Cat(*bits)
+        out.append(acc)
+    return Cat(*out)
+
+
+def crc_clocks(slots: int) -> int:
+    """Clocks the stream CRC takes per word: 4 (a byte a clock) when writes
+    land at least 5 clocks apart (M >= 5), else 2 or 1, so that the CRC is
+    complete before the next write lands (and, at M >= 2, a clock before it,
+    for the registered comparison). A whole word a clock is one dense XOR
+    network of the register: on the one-pipeline bitstream it doubled
+    router1's time."""
+    return 4 if slots >= 5 else 2 if slots >= 3 else 1
 
 
 class BusSignature(wiring.Signature):
@@ -290,17 +303,24 @@ class RegisterFile(wiring.Component):
         run_start = Signal.like(addr, name="run_start")
         run_count = Signal(c.length_width, name="run_count")
         run_crc = Signal(32, init=0xFFFFFFFF, name="run_crc")
-        # The word's half of the update, T(word), a clock before it lands (the
-        # whole update in the loop, T(crc ^ word), would not route: one
-        # all-to-all XOR network, router1 went on for over 15 minutes).
-        word_t = Signal(32, name="run_crc_word")
-        m.d.sync += word_t.eq(crc32_shift(before.data))
+        # The CRC takes crc_clocks(M) clocks per word, 32 / k bits a clock: the
+        # first part in the landing clock, the rest from ``crc_rest``.
+        k = crc_clocks(c.slots)
+        b = 32 // k
+        crc_rest = Signal(32 - b, name="run_crc_rest")
+        crc_left = Signal(range(k), name="run_crc_left")
         with m.If(strobe[rmap.reg("STREAM_ADDR").addr]):
             m.d.sync += [run_start.eq(land_field[(rmap.reg("STREAM_ADDR").addr, "addr")]),
                          run_count.eq(0), run_crc.eq(0xFFFFFFFF)]
         with m.Elif(data_w):
-            m.d.sync += [run_crc.eq(crc32_shift(run_crc) ^ word_t),
+            m.d.sync += [run_crc.eq(crc32_step(run_crc, land_data[None][:b])),
                          run_count.eq(run_count + (run_count != (1 << c.length_width) - 1))]
+            if k > 1:
+                m.d.sync += [crc_rest.eq(land_data[None][b:]), crc_left.eq(k - 1)]
+        if k > 1:
+            with m.Elif(crc_left != 0):
+                m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
+                             crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
 
         # Per channel: what the engine reads, the applied tap, the command.
