@@ -4,7 +4,7 @@ from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array
 from amaranth.lib import wiring, data
 from amaranth.lib.wiring import In, Out
 
-from ..model.regmap import RegisterMap, CRC32_POLY
+from ..model.regmap import RegisterMap, CRC32_POLY, STORED
 from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 
 __all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks"]
@@ -199,7 +199,7 @@ class RegisterFile(wiring.Component):
         storage = {}          # (reg name, channel, field name) -> Signal
         for r in rmap.registers:
             for f in r.fields:
-                if f.access == "rw":
+                if f.access in STORED:
                     storage[(r.name, r.channel, f.name)] = Signal(
                         f.width, init=f.reset, name=f"{r.name.lower()}{'' if r.channel is None else r.channel}_{f.name}")
 
@@ -272,7 +272,7 @@ class RegisterFile(wiring.Component):
                                                  1, f"hit_{r.name.lower()}{suffix}"),
                                          1, f"w_{r.name.lower()}{suffix}")
                 for f in r.fields:
-                    if f.access != "rw":
+                    if f.access not in STORED:
                         continue
                     if not f.clamp:
                         land_field[(r.addr, f.name)] = dcopy[f.lsb:f.lsb + f.width]
@@ -291,7 +291,7 @@ class RegisterFile(wiring.Component):
         # Generic rw storage.
         for r in rmap.registers:
             for f in r.fields:
-                if f.access == "rw":
+                if f.access in STORED:
                     with m.If(strobe[r.addr]):
                         m.d.sync += storage[(r.name, r.channel, f.name)].eq(land_field[(r.addr, f.name)])
 
@@ -403,7 +403,7 @@ class RegisterFile(wiring.Component):
             hooks_stored[("CTRL", l, "rejected")] = rejected[l]
 
         def stored(key, f):
-            if key in storage:
+            if key in storage and f.access == "rw":
                 return storage[key]
             if key in hooks_stored:
                 return hooks_stored[key]

@@ -256,7 +256,7 @@ class ReplayModel:
                   "GAIN": lambda: self.gain[l], "DELAY": lambda: self.delay_next[l],
                   "COMMON_DELAY": lambda: self.common_next,
                   "BASE": lambda: self.base_next[l], "STREAM_ADDR": lambda: self.stream_addr,
-                  "CRC": lambda: self.crc_next[l], "STREAM_CRC": lambda: self.run_crc,
+                  "STREAM_CRC": lambda: self.run_crc,
                   "STREAM_COUNT": lambda: self.run_count}
         if r.name in stored:
             return stored[r.name]()

@@ -11,6 +11,8 @@ Bus: word addresses, 32-bit data, one access per clock, read data registered
 Access kinds of a field:
 
 ``rw``  storage, reads back what was written (after clamping, see ``clamp``)
+``w``   storage the block uses, not read back (reads as 0): kept out of the
+        read-back multiplexer, whose size is a routing cost
 ``ro``  read-only, driven by the hardware
 ``wo``  write strobe (command); reads as 0 unless a read meaning is given
 ``rc``  sticky status, cleared by a read of its register
@@ -25,7 +27,7 @@ from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BIT
 from .powerup import ChannelInit
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
-           "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED",
+           "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
            "CRC32_POLY", "stream_crc32"]
 
 ID_VALUE = 0x52415354          # "RAST"
@@ -35,6 +37,8 @@ CTRL_ENABLE = 1 << 0
 CTRL_SWAP = 1 << 1
 CTRL_BANK = 1 << 2
 CTRL_REJECTED = 1 << 3
+#: Access kinds the register file keeps in storage.
+STORED = ("rw", "w")
 #: CRC-32 of IEEE 802.3 / zlib, reflected polynomial (the gateware derives its update from it).
 CRC32_POLY = 0xEDB88320
 
@@ -221,10 +225,10 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                               "pool address of word 0 of the stream for the next "
                                               "switch"),),
                      "latched into the stream at the switch", ch),
-            Register("CRC", base + 6, (Field("crc", 0, 32, "rw", 0,
+            Register("CRC", base + 6, (Field("crc", 0, 32, "w", 0,
                                              "CRC-32 (zlib) of the stream for the next switch: a SWAP "
                                              "is taken only if it equals STREAM_CRC and BASE and LENGTH "
-                                             "are STREAM_ADDR's start and STREAM_COUNT"),),
+                                             "are STREAM_ADDR's start and STREAM_COUNT; reads 0"),),
                      "checked at the switch", ch),
         ]
     return RegisterMap(c, regs)

@@ -57,7 +57,8 @@ def expected_readback(writes, rmap):
     exp = {}
     for addr, value in writes:
         r = rmap.by_addr(addr)
-        if r is None or r.name in ("STREAM_DATA", "APPLY", "STREAM_ADDR"):
+        if (r is None or r.name in ("STREAM_DATA", "APPLY", "STREAM_ADDR")
+                or not any(f.access == "rw" for f in r.fields)):
             continue
         v = 0
         for f in r.fields:
