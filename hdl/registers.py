@@ -39,9 +39,9 @@ def crc_clocks(slots: int) -> int:
     """Clocks the stream CRC takes per word: 4 (a byte a clock) when writes
     land at least 5 clocks apart (M >= 5), else 2 or 1, so that the CRC is
     complete before the next write lands (and, at M >= 2, a clock before it,
-    for the registered comparison). A whole word a clock is one dense XOR
-    network of the register: on the one-pipeline bitstream it doubled
-    router1's time."""
+    for the registered comparison). A byte a clock keeps each step's XORs
+    sparse (one register bit and a few of the byte's), where a word a clock
+    is a dense network of the register in its own loop."""
     return 4 if slots >= 5 else 2 if slots >= 3 else 1
 
 
