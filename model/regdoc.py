@@ -40,9 +40,9 @@ writes `w_data` to `addr`, `r_stb` reads `addr`, held until the block takes
 the access in a cycle with `ready` high (once per period of M fabric clocks);
 a read's answer is on `r_data` in the cycle `r_valid` is high, a fixed number
 of cycles later. Unused addresses read 0, and so do write-only fields
-(access `w`: stored and used by the block, not read back). Written values are masked to the
-field width, then clamped into the field's range where one is given (LENGTH
-1..pool words, DELAY 0..max).
+(access `w`: stored and used by the block, not read back). Written values
+are masked to the field width, then clamped into the field's range where
+one is given (LENGTH 1..pool words, DELAY 0..max).
 
 Timing: a write taken between input samples k − 1 and k (a write taken in
 the clock cycle of an input transfer counts as after it) takes effect from
