@@ -1,8 +1,9 @@
 """Load time over the UART bridge: the line time of ``rast load``'s writes for the examples.
 
-For each farm, the register writes ``rast load`` sends (``manifest_to_register_writes``,
-board target: per channel the stream as one burst frame, BASE, LENGTH,
-PHASE_INC, CRC, gain, delay, the switch) are framed as the bridge protocol
+For each farm, the register writes ``rast load`` sends (``manifest_to_register_writes``:
+per channel the stream as one burst frame, BASE, LENGTH, PHASE_INC, CRC,
+gain, delay, the switch; the block target, whose writes differ from the
+board's only in the delay values) are framed as the bridge protocol
 frames them (``rast.model.hostproto.group_writes``) and their bytes counted;
 at 8N1 a byte is 10 bits on the line. Printed: stream words, frame bytes, and
 the line time at 1 Mbaud (the old default) and 3 Mbaud (the FT231X's fastest,
@@ -26,7 +27,7 @@ import numpy as np
 
 from rast.model.config import parse_config
 from rast.model.fixedpoint import ReplayContract, POOL_BANK_WORDS
-from rast.model.hostproto import group_writes, line_seconds
+from rast.model.hostproto import line_bytes, line_seconds
 from rast.model.loadplan import manifest_to_register_writes
 from rast.model.stream import build_farm_streams
 
@@ -64,7 +65,7 @@ def main():
         contract = ReplayContract(channels=n, pool_words=pool, max_delay=65534, max_tap=16382)
         writes = manifest_to_register_writes(fs.manifest(), contract, streams=[s.words for s in fs.streams],
                                              target="block")
-        nbytes = sum(len(f) for f in group_writes(writes))
+        nbytes = line_bytes(writes)
         print(f"{name:<44} {n:>8} {words:>12,} {nbytes:>11,} "
               + " ".join(f"{line_seconds(writes, b):>11.2f} s" for b in BAUDS))
 

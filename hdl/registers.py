@@ -309,8 +309,9 @@ class RegisterFile(wiring.Component):
         b = 32 // k
         crc_rest = Signal(32 - b, name="run_crc_rest")
         crc_left = Signal(range(k), name="run_crc_left")
-        with m.If(strobe[rmap.reg("STREAM_ADDR").addr]):
-            m.d.sync += [run_start.eq(land_field[(rmap.reg("STREAM_ADDR").addr, "addr")]),
+        start_addr = rmap.reg("STREAM_ADDR").addr
+        with m.If(strobe[start_addr]):
+            m.d.sync += [run_start.eq(land_field[(start_addr, "addr")]),
                          run_count.eq(0), run_crc.eq(0xFFFFFFFF)]
         with m.Elif(data_w):
             m.d.sync += [run_crc.eq(crc32_step(run_crc, land_data[None][:b])),

@@ -23,15 +23,13 @@ Hence an echo of channel l appears ``L + d_c + d_l`` samples after the input,
 ``L = COMMON_LAG + WINDOW_LAG``. Everything before step 0 is zero.
 """
 
-import zlib
-
 import numpy as np
 
 from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
                          INTERP_FRAC_BITS, PHASE_FRAC_BITS, COMMON_LAG, WINDOW_LAG,
                          STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
                          FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate, pack_iq, unpack_iq)
-from .regmap import register_map
+from .regmap import register_map, stream_crc32
 from .powerup import ChannelInit, pool_contents
 
 __all__ = ["cmult", "gain_scale", "interpolate_words", "fir_table", "stream_words",
@@ -233,7 +231,7 @@ class ReplayModel:
             self.stream_addr = fv("addr")
             self.run_start, self.run_count, self.run_crc = self.stream_addr, 0, 0
         elif r.name == "STREAM_DATA":
-            self.run_crc = zlib.crc32(value.to_bytes(4, "little"), self.run_crc)
+            self.run_crc = stream_crc32((value,), self.run_crc)
             self.run_count = min(self.run_count + 1, self._count_max)
             # A playing stream's words are the host's to keep (the hardware's
             # cache may already hold them): the model reads them at the switch.

@@ -30,7 +30,7 @@ import struct
 import time
 
 __all__ = ["CMD_WRITE", "CMD_BURST", "CMD_READ", "CMD_VERSION", "ACK", "BRIDGE_ID",
-           "PROTOCOL_VERSION", "TX_FIFO_DEPTH", "MAX_BURST", "DEFAULT_BAUD", "line_seconds", "ProtocolError",
+           "PROTOCOL_VERSION", "TX_FIFO_DEPTH", "MAX_BURST", "DEFAULT_BAUD", "line_bytes", "line_seconds", "ProtocolError",
            "HostBridge", "encode_write", "encode_burst", "encode_read", "group_writes"]
 
 CMD_WRITE = 0x57    # "W"
@@ -97,11 +97,15 @@ def group_writes(writes):
     return frames
 
 
+def line_bytes(writes) -> int:
+    """Bytes of the frames of ``writes`` (:func:`group_writes`), host to board."""
+    return sum(len(f) for f in group_writes(writes))
+
+
 def line_seconds(writes, baud: int = DEFAULT_BAUD) -> float:
-    """Time the frames of ``writes`` (:func:`group_writes`) take on the line at
-    ``baud``, 10 bits a byte (8N1), host to board; the replies travel the other
-    way at the same time."""
-    return sum(len(f) for f in group_writes(writes)) * 10 / baud
+    """Time the frames of ``writes`` take on the line at ``baud``, 10 bits a
+    byte (8N1), host to board; the replies travel the other way at the same time."""
+    return line_bytes(writes) * 10 / baud
 
 
 class HostBridge:

@@ -89,6 +89,7 @@ class RegisterMap:
 
     def __post_init__(self):
         self._by_key = {(r.name, r.channel): r for r in self.registers}
+        self._by_addr = {r.addr: r for r in self.registers}
 
     @property
     def addr_width(self) -> int:
@@ -104,10 +105,7 @@ class RegisterMap:
         return self.reg(name, channel).addr
 
     def by_addr(self, addr) -> Register | None:
-        for r in self.registers:
-            if r.addr == addr:
-                return r
-        return None
+        return self._by_addr.get(addr)
 
 
 def _bits(n: int) -> int:

@@ -136,8 +136,9 @@ def manifest_streams(manifest: dict, folder) -> list[list[int]]:
         if len(words) != ch["length"]:
             raise UserError(f"{path} has {len(words)} words, the manifest says {ch['length']}")
         want = by_name[ch["windmill"]].get("crc32")       # manifests before the CRC have none
-        if want is not None and stream_crc32(words) != want:
-            raise UserError(f"{path} has CRC-32 {stream_crc32(words):#010x}, the manifest says "
+        got = stream_crc32(words) if want is not None else None
+        if got != want:
+            raise UserError(f"{path} has CRC-32 {got:#010x}, the manifest says "
                             f"{int(want):#010x}: the file changed after `rast stream` wrote it")
         streams.append(words)
     return streams

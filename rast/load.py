@@ -119,8 +119,8 @@ def send_writes(bridge, writes, contract, progress=None, *, channels=None):
     if mismatches:
         raise LoadError("Read-back differs: " + "; ".join(mismatches))
     # every switch asked for was taken: the words the block received had the CRC-32 sent
-    crc_written = {rmap.by_addr(a).channel: v for a, v in writes if rmap.by_addr(a) is not None
-                   and rmap.by_addr(a).name == "CRC"}
+    crc_channel = {rmap.addr("CRC", ch): ch for ch in range(contract.channels)}
+    crc_written = {crc_channel[a]: v for a, v in writes if a in crc_channel}
     refused = [f"channel {ch} (CRC-32 {crc:#010x})" for ch, crc in sorted(crc_written.items())
                if bridge.read(rmap.addr("CTRL", ch)) & CTRL_REJECTED]
     if refused:

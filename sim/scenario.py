@@ -167,7 +167,7 @@ def _stream_load(rmap, ch, words, length, inc, base, enable=True, force=False, c
     block must refuse the switch and keep playing the old stream."""
     a = rmap.addr
     n = max(length, rmap.contract.min_stream_length)
-    words = [int(x) & 0xFFFFFFFF for x in words[:length]] + [0] * (n - min(length, len(words)))
+    words = list(words[:length]) + [0] * (n - min(length, len(words)))
     w = [(a("CTRL", ch), 0)] if force else []
     load = stream_writes(rmap, ch, base, words, inc)
     if corrupt is not None:
