@@ -9,13 +9,18 @@ from .iq import IQ
 from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
+from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
-                                POOL_FETCH_CYCLES, write_staging, tree_levels, visit_cycles)
+                                POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
+                                write_staging, tree_levels, visit_cycles)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
 
-__all__ = ["WindFarmReplay"]
+__all__ = ["WindFarmReplay", "SDRAM_ADDRESS_WIDTH"]
+
+#: Word address bits of the SDRAM pool's native port: the whole 32 MB.
+SDRAM_ADDRESS_WIDTH = (SDRAM_MAX_POOL_WORDS - 1).bit_length()
 
 
 class WindFarmReplay(wiring.Component):
@@ -40,8 +45,14 @@ class WindFarmReplay(wiring.Component):
     ----------
     channels : int
         N, 1 to ReplayContract.MAX_CHANNELS.
-    slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz :
-        See :class:`rast.model.fixedpoint.ReplayContract`.
+    slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz, pool :
+        See :class:`rast.model.fixedpoint.ReplayContract`. With ``pool="sdram"``
+        the streams are fetched through :class:`~rast.hdl.sdram_pool.SDRAMStreamPool`
+        whose native port is ``native`` in the clock domain ``sdram`` (the
+        parent defines it and connects a LiteDRAM core); there are no
+        power-up streams, and bus accesses wait while a stream word is on
+        its way into the pool, so that it is queued before anything a later
+        access starts (a switch's first fetch) .
     init : list of ChannelInit, optional
         Power-up streams (in the pool at their bases) and register values.
     init_common_delay : int
@@ -58,16 +69,22 @@ class WindFarmReplay(wiring.Component):
     slot : Out(range(slots))
         The slot counter: 0 in a period's first clock (the board's converter
         clocks are made from it).
+    native : Out(native_port_signature(SDRAM_ADDRESS_WIDTH, 32)), SDRAM pool only
+        LiteDRAM's native user port (the whole SDRAM's word address; the
+        pool is its first ``pool_words``), in domain ``sdram``.
+    pool_error : Out(1), SDRAM pool only
+        Sticky: a fetch request or a stream word found no room, or the pool
+        lost an answer (cannot happen; the cosimulation asserts it stays 0).
     """
 
     def __init__(self, channels=4, *, slots=1, pool_words=ReplayContract.pool_words,
                  max_delay=ReplayContract.max_delay, max_tap=ReplayContract.max_tap,
-                 interpolation="fir", cmult_form="4mult", sample_rate_hz=0, init=None,
+                 interpolation="fir", cmult_form="4mult", sample_rate_hz=0, pool="bram", init=None,
                  init_common_delay=0):
         self._contract = ReplayContract(channels=channels, slots=slots, pool_words=pool_words,
                                         max_delay=max_delay, max_tap=max_tap,
                                         interpolation=interpolation, cmult_form=cmult_form,
-                                        sample_rate_hz=sample_rate_hz)
+                                        sample_rate_hz=sample_rate_hz, pool=pool)
         init = list(init or [])
         if len(init) > channels:
             raise ValueError(f"Initial contents must be given for at most {channels} channels, "
@@ -77,6 +94,9 @@ class WindFarmReplay(wiring.Component):
                 raise TypeError(f"Initial contents of channel {k} must be a ChannelInit, not {ini!r}")
         self._init = init + [ChannelInit()] * (channels - len(init))
         self._pool_init = pool_contents(init, pool_words) if any(ini.words for ini in init) else []
+        if self._pool_init and pool == "sdram":
+            raise ValueError("Initial streams need a block-RAM pool: an SDRAM pool powers up empty "
+                             "(load the streams through the bus)")
         if not isinstance(init_common_delay, int) or not 0 <= init_common_delay <= max_delay:
             raise ValueError(f"Initial common delay must be an integer in [0, {max_delay}], "
                              f"not {init_common_delay!r}")
@@ -87,6 +107,8 @@ class WindFarmReplay(wiring.Component):
             "bus": In(BusSignature(self._rmap.addr_width)),
             "overflow": Out(1),
             "slot": Out(range(max(2, slots))),
+            **({"native": Out(native_port_signature(SDRAM_ADDRESS_WIDTH, WORD_WIDTH)),
+                "pool_error": Out(1)} if pool == "sdram" else {}),
         })
 
     @property
@@ -177,7 +199,28 @@ class WindFarmReplay(wiring.Component):
         take = Signal(init=take_slot == 0)
         if M > 1:
             m.d.sync += take.eq(slot == (take_slot - 1) % M)
-        m.d.comb += [self.overflow.eq(regs.overflow), regs.take.eq(take)]
+        m.d.comb += self.overflow.eq(regs.overflow)
+        sdram = c.pool == "sdram"
+        if sdram:
+            # A stream word goes from the register file to the SDRAM pool's
+            # write port through a one-word holding register. No access is
+            # taken while a write may still be on its way there (taken in the
+            # last Sw + 1 clocks, or held): so every stream word is in the
+            # pool's queue, which keeps order, before any later access (the
+            # switch to the stream, hence its first fetch) is taken.
+            w_held = Signal()
+            w_held_addr = Signal.like(regs.wr_addr)
+            w_held_data = Signal.like(regs.wr_data)
+            w_lost = Signal()
+            taken_write = Signal()
+            recent = Signal(Sw + 1)
+            busy = Signal()
+            m.d.comb += taken_write.eq(self.bus.ready & self.bus.w_stb)
+            m.d.sync += [recent.eq(Cat(taken_write, recent[:-1])),
+                         busy.eq(taken_write | (recent != 0) | regs.wr_en | w_held)]
+            m.d.comb += regs.take.eq(take & ~busy)
+        else:
+            m.d.comb += regs.take.eq(take)
 
         # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
         # The pipelines' period starts ACCEPT_LAG clocks after the accepting one:
@@ -198,8 +241,21 @@ class WindFarmReplay(wiring.Component):
         # ---- the pool and the fetch scan -----------------------------------------
         ptag = fetch_tag_layout(M)
         pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
-        m.submodules.pool = pool = StreamPool(c.pool_words, pool_tag.size, init=self._pool_init)
-        m.d.comb += [pool.w_en.eq(regs.wr_en), pool.w_addr.eq(regs.wr_addr), pool.w_data.eq(regs.wr_data)]
+        if sdram:
+            m.submodules.pool = pool = SDRAMStreamPool(SDRAM_ADDRESS_WIDTH, pool_tag.size,
+                                                       queue_depth=SDRAM_QUEUE_DEPTH, sdram_domain="sdram")
+            wiring.connect(m, pool.native, wiring.flipped(self.native))
+            with m.If(regs.wr_en):
+                m.d.sync += [w_held.eq(1), w_held_addr.eq(regs.wr_addr), w_held_data.eq(regs.wr_data)]
+                with m.If(w_held & ~pool.w_ready):
+                    m.d.sync += w_lost.eq(1)
+            with m.Elif(pool.w_ready):
+                m.d.sync += w_held.eq(0)
+            m.d.comb += [pool.w_valid.eq(w_held), pool.w_addr.eq(w_held_addr), pool.w_data.eq(w_held_data),
+                         pool.rd_valid.eq(0)]
+        else:
+            m.submodules.pool = pool = StreamPool(c.pool_words, pool_tag.size, init=self._pool_init)
+            m.d.comb += [pool.w_en.eq(regs.wr_en), pool.w_addr.eq(regs.wr_addr), pool.w_data.eq(regs.wr_data)]
         # One pipeline's slots are offered a fetch per period, pipelines in turn
         # (from the pipelines' period start).
         scan = Signal(P, init=1)
@@ -208,14 +264,34 @@ class WindFarmReplay(wiring.Component):
         req_valid = Signal()
         req_addr = Signal.like(pool.r_addr)
         req_tag = Signal(pool_tag)
-        m.d.comb += [pool.r_valid.eq(req_valid), pool.r_addr.eq(req_addr), pool.r_tag.eq(req_tag)]
+        credit = Const(1)
+        if sdram:
+            # Fetches queue in a FIFO in front of the pool, which may refuse
+            # them. An offer reaches the FIFO V + 3 clocks later (the
+            # pipeline's offer delay, its grant register, the request
+            # register), so a pipeline is offered fetches only while the FIFO,
+            # as counted a clock before, has room for every offer since.
+            m.submodules.req_fifo = req_fifo = SyncFIFO(width=len(req_addr) + pool_tag.size,
+                                                       depth=SDRAM_REQUEST_FIFO)
+            credit = Signal()
+            req_lost = Signal()
+            m.d.sync += credit.eq(req_fifo.level <= SDRAM_REQUEST_FIFO - V - 4)
+            with m.If(req_valid & ~req_fifo.w_rdy):
+                m.d.sync += req_lost.eq(1)
+            m.d.comb += [req_fifo.w_en.eq(req_valid), req_fifo.w_data.eq(Cat(req_addr, req_tag)),
+                         pool.r_valid.eq(req_fifo.r_rdy), pool.r_addr.eq(req_fifo.r_data[:len(req_addr)]),
+                         pool.r_tag.eq(req_fifo.r_data[len(req_addr):]), req_fifo.r_en.eq(pool.r_ready),
+                         self.pool_error.eq(req_lost | w_lost | pool.lost)]
+        else:
+            m.d.comb += [pool.r_valid.eq(req_valid), pool.r_addr.eq(req_addr), pool.r_tag.eq(req_tag)]
         fill_valid = Signal()
         fill_tag = Signal(pool_tag)
         fill_data = Signal.like(pool.d_data)
         m.d.sync += [fill_valid.eq(pool.d_valid), fill_tag.eq(pool.d_tag), fill_data.eq(pool.d_data)]
         # grant (visit) -> pipeline's request register -> this register -> the
         # pool -> fill_* -> the pipeline's fill register -> the cache
-        assert 4 + pool.latency + 1 <= POOL_FETCH_CYCLES, "the contract's fetch latency is too short"
+        if not sdram:
+            assert 4 + pool.latency + 1 <= POOL_FETCH_CYCLES, "the contract's fetch latency is too short"
 
         # ---- the pipelines ---------------------------------------------------------
         pipes = []
@@ -227,7 +303,7 @@ class WindFarmReplay(wiring.Component):
             # a registered copy of the accept strobe for each pipeline
             acc_p = Signal(name=f"accept{p}")
             m.d.sync += acc_p.eq(accept)
-            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(scan[p])]
+            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(scan[p] & credit)]
             for s in range(M):
                 ch = p * M + s
                 if ch < N:

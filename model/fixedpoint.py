@@ -99,7 +99,9 @@ __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
             "FIR_LEAD", "FIR_KAISER_BETA", "FIR_CUTOFF", "FIR_COEF_WIDTH", "FIR_COEF_FRAC", "FIR_ACC_WIDTH", "FIR_MAX_INCREMENT",
             "FIR_MIN_LENGTH", "FIR_REFILL_SAMPLES", "CACHE_WORDS", "CACHE_GUARD_WORDS", "CACHE_FILL_WORDS",
-            "POOL_BANK_WORDS", "cache_need_words", "fetch_wait_samples", "pool_words_for", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
+            "POOL_BANK_WORDS", "POOL_BACKENDS", "SDRAM_CLOCK_HZ", "SDRAM_FABRIC_HZ", "SDRAM_MAX_POOL_WORDS",
+            "SDRAM_QUEUE_DEPTH", "SDRAM_REQUEST_FIFO", "SDRAM_WORD_CLOCKS", "SDRAM_REFRESH_CLOCKS",
+            "SDRAM_REFRESH_INTERVAL_CLOCKS", "SDRAM_PATH_CLOCKS", "sdram_fetch_clocks", "cache_need_words", "fetch_wait_samples", "pool_words_for", "FIR_MIN_SAMPLES_PER_STEP", "fir_prototype",
             "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
             "delay_depth", "ReplayContract",
@@ -215,6 +217,70 @@ POOL_FETCH_CYCLES = 20
 #: Words of one pool bank (on ECP5: 32 DP16KD of 16384 x 1; deeper pools are
 #: banks behind a registered multiplexer).
 POOL_BANK_WORDS = 16384
+
+# ---------------------------------------------------------------------------
+# The pool's SDRAM back end (``pool="sdram"``: rast.hdl.sdram_pool on
+# LiteDRAM, docs/sdram.md). The streams live in the ULX3S's SDRAM; fetches
+# reach it through a request FIFO of SDRAM_REQUEST_FIFO entries (a scan
+# grants a fetch only while that FIFO has room for every grant already on
+# its way) and come back in the order asked, after a latency that varies
+# with refresh, the other channels' fetches and the host's writes. The
+# contract takes the worst case, derived in docs/sdram.md ("Worst-case fetch
+# latency") from the controller's timings:
+#
+#   a word costs at most SDRAM_WORD_CLOCKS controller clocks (a row miss,
+#   two 16-bit column commands, a read/write turnaround), twice that while
+#   the host writes (the pool gives the host every other turn);
+#   a refresh at most SDRAM_REFRESH_CLOCKS, one every
+#   SDRAM_REFRESH_INTERVAL_CLOCKS;
+#   a fetch waits behind at most the request FIFO, the pool's reads
+#   outstanding and its host writes (SDRAM_REQUEST_FIFO + 3 x
+#   SDRAM_QUEUE_DEPTH words), plus SDRAM_PATH_CLOCKS of crossings and read path.
+#
+# In fabric clocks these scale by fabric clock / SDRAM_CLOCK_HZ (the fabric
+# clock is ``slots x sample_rate_hz``; SDRAM_FABRIC_HZ, the fastest the
+# engine is built for, when the rate is not stated). From them:
+#
+#   refill after a switch: the latency bound, plus every channel's cache
+#   fill queued before this one (N x (CACHE_FILL_WORDS + 1) words at the
+#   write-interleaved word cost);
+#   the highest stream rate, one word per ``word_samples`` samples: the
+#   bandwidth (N channels' words at the write-interleaved cost) and the
+#   latency (a word fetched when the consumer releases one is needed
+#   CACHE_FILL_WORDS - need - 1 releases later, at the latest).
+# ---------------------------------------------------------------------------
+
+POOL_BACKENDS = ("bram", "sdram")
+#: LiteDRAM controller clock (litex-boards' ULX3S target).
+SDRAM_CLOCK_HZ = 50_000_000
+#: Fabric clock assumed for the SDRAM bounds when no sample rate is stated.
+SDRAM_FABRIC_HZ = 200_000_000
+#: Stream words the ULX3S's 32 MB SDRAM holds (a 23-bit word address).
+SDRAM_MAX_POOL_WORDS = 1 << 23
+#: Reads the SDRAM pool keeps outstanding (``SDRAMStreamPool(queue_depth=)``).
+SDRAM_QUEUE_DEPTH = 16
+#: Entries of the engine's request FIFO in front of the SDRAM pool.
+SDRAM_REQUEST_FIFO = 16
+#: Controller clocks a word costs at most; a refresh; the refresh interval;
+#: crossings and read path (docs/sdram.md).
+SDRAM_WORD_CLOCKS = 10
+SDRAM_REFRESH_CLOCKS = 10
+SDRAM_REFRESH_INTERVAL_CLOCKS = 391
+SDRAM_PATH_CLOCKS = 12
+
+
+def sdram_fetch_clocks() -> int:
+    """Controller clocks from a fetch entering the engine's request FIFO to its
+    answer leaving the pool, at most (with refreshes in that window)."""
+    ahead = SDRAM_REQUEST_FIFO + 3 * SDRAM_QUEUE_DEPTH + 1
+    t = SDRAM_PATH_CLOCKS + ahead * SDRAM_WORD_CLOCKS
+    while True:
+        refreshes = -(-t // SDRAM_REFRESH_INTERVAL_CLOCKS) + 1
+        t_next = SDRAM_PATH_CLOCKS + ahead * SDRAM_WORD_CLOCKS + refreshes * SDRAM_REFRESH_CLOCKS
+        if t_next == t:
+            return t
+        t = t_next
+
 
 
 def fir_prototype() -> "np.ndarray":
@@ -477,28 +543,33 @@ def cache_need_words(interpolation: str) -> int:
     return {"hold": 1, "linear": 2, "fir": FIR_TAPS}[interpolation]
 
 
-def fetch_wait_samples(pipelines: int, slots: int = 1) -> int:
+def fetch_wait_samples(pipelines: int, slots: int = 1, fetch_cycles: int = POOL_FETCH_CYCLES,
+                       queued_cycles: int = 0) -> int:
     """Samples after a switch by which CACHE_FILL_WORDS words are in the cache,
     at one period per sample (bubbles only give the fetcher more periods): the
     visit that restarts the fetcher, then each word at most one scan of
-    ``pipelines`` periods, the last POOL_FETCH_CYCLES more, and one to spare."""
-    return 1 + CACHE_FILL_WORDS * pipelines + -(-POOL_FETCH_CYCLES // slots) + 1
+    ``pipelines`` periods, the last ``fetch_cycles`` more (the pool's latency
+    bound), ``queued_cycles`` for the other channels' fetches queued before
+    them (0 for the block-RAM pool, which serves one a clock), and one to spare."""
+    return 1 + CACHE_FILL_WORDS * pipelines + -(-(fetch_cycles + queued_cycles) // slots) + 1
 
 
-def refill_samples(interpolation: str, pipelines: int = 1, slots: int = 1) -> int:
+def refill_samples(interpolation: str, pipelines: int = 1, slots: int = 1,
+                   fetch_cycles: int = POOL_FETCH_CYCLES, queued_cycles: int = 0) -> int:
     """Samples a channel is muted (phase held at 0) after a switch or reset:
     the cache fill, then (FIR) the first three U values."""
     _check_interpolation(interpolation)
     extra = FIR_REFILL_SAMPLES if interpolation == "fir" else 0
-    return fetch_wait_samples(pipelines, slots) + extra
+    return fetch_wait_samples(pipelines, slots, fetch_cycles, queued_cycles) + extra
 
 
-def max_phase_increment(interpolation: str, pipelines: int = 1) -> int:
+def max_phase_increment(interpolation: str, pipelines: int = 1, word_samples: int | None = None) -> int:
     """Largest PHASE_INC the block accepts (larger values are clamped): the
     FIR's MAC limit, and for every interpolation at most one word per
-    ``pipelines`` samples (what the fetch scan supplies)."""
+    ``word_samples`` samples (default ``pipelines``: what the fetch scan
+    supplies; the SDRAM pool asks more, ``ReplayContract.word_samples``)."""
     _check_interpolation(interpolation)
-    scan = ((1 << PHASE_FRAC_BITS) - 1) // pipelines
+    scan = ((1 << PHASE_FRAC_BITS) - 1) // (pipelines if word_samples is None else word_samples)
     return min(FIR_MAX_INCREMENT, scan) if interpolation == "fir" else scan
 
 
@@ -545,6 +616,11 @@ class ReplayContract:
     sample_rate_hz : int
         RTS sample rate the block is built for (register SAMPLE_RATE); 0 when
         not stated (simulation). It changes no arithmetic.
+    pool : str
+        Where the stream pool lives: ``"bram"`` (block RAM, default) or
+        ``"sdram"`` (the board's SDRAM; a power of two up to
+        SDRAM_MAX_POOL_WORDS words, longer refills and a lower highest
+        stream rate: see the SDRAM section above).
     """
     channels: int = 4
     slots: int = 1
@@ -554,10 +630,11 @@ class ReplayContract:
     interpolation: str = "fir"
     cmult_form: str = "4mult"
     sample_rate_hz: int = 0
+    pool: str = "bram"
 
     #: Keys of :meth:`to_dict` that are constructor parameters.
     PARAMETERS = ("channels", "slots", "pool_words", "max_delay", "max_tap", "interpolation",
-                  "cmult_form", "sample_rate_hz")
+                  "cmult_form", "sample_rate_hz", "pool")
     #: Most channels a block may have (the CONFIG register's 8-bit field).
     MAX_CHANNELS = 255
     #: Most slots per pipeline.
@@ -575,11 +652,19 @@ class ReplayContract:
                 raise ValueError(f"{what} must be at most {hi}, not {v!r}")
         posint("channels", "Channel count", self.channels, 1, self.MAX_CHANNELS)
         posint("slots", "Slots per pipeline", self.slots, 1, self.MAX_SLOTS)
-        posint("pool_words", "Pool words", self.pool_words, 16, 1 << 20)
+        if self.pool not in POOL_BACKENDS:
+            raise ValueError(f"Pool must be one of {', '.join(POOL_BACKENDS)}, not {self.pool!r}")
         w = self.pool_words
-        if not (w % POOL_BANK_WORDS == 0 if w > POOL_BANK_WORDS else not w & (w - 1)):
-            raise ValueError(f"Pool words must be a power of two from 16 to {POOL_BANK_WORDS} or a "
-                             f"multiple of {POOL_BANK_WORDS}, not {w!r}")
+        if self.pool == "sdram":
+            posint("pool_words", "Pool words", w, 16, SDRAM_MAX_POOL_WORDS)
+            if w & (w - 1):
+                raise ValueError(f"Pool words of an SDRAM pool must be a power of two from 16 to "
+                                 f"{SDRAM_MAX_POOL_WORDS}, not {w!r}")
+        else:
+            posint("pool_words", "Pool words", w, 16, 1 << 20)
+            if not (w % POOL_BANK_WORDS == 0 if w > POOL_BANK_WORDS else not w & (w - 1)):
+                raise ValueError(f"Pool words must be a power of two from 16 to {POOL_BANK_WORDS} or a "
+                                 f"multiple of {POOL_BANK_WORDS}, not {w!r}")
         posint("max_delay", "Maximum delay", self.max_delay, 1, 1 << 20)
         posint("max_tap", "Maximum tap", self.max_tap, 1, 1 << 20)
         _check_interpolation(self.interpolation)
@@ -624,13 +709,49 @@ class ReplayContract:
     def sum_width(self) -> int:
         return sum_width(self.channels)
 
+    def _fabric_cycles(self, sdram_clocks: int) -> int:
+        """Controller clocks of the SDRAM in fabric clocks (rounded up)."""
+        fabric_hz = self.clock_hz or SDRAM_FABRIC_HZ
+        return -(-sdram_clocks * fabric_hz // SDRAM_CLOCK_HZ)
+
+    @property
+    def pool_fetch_cycles(self) -> int:
+        """Fabric clocks from a granted fetch to its word in the cache, at most:
+        POOL_FETCH_CYCLES for block RAM; for SDRAM that path plus
+        :func:`sdram_fetch_clocks` in fabric clocks."""
+        if self.pool == "bram":
+            return POOL_FETCH_CYCLES
+        return POOL_FETCH_CYCLES + self._fabric_cycles(sdram_fetch_clocks())
+
+    @property
+    def pool_word_cycles(self) -> int:
+        """Fabric clocks the pool may take per fetched word under load: 1 for
+        block RAM; for SDRAM twice SDRAM_WORD_CLOCKS (the host's writes take
+        every other turn)."""
+        return 1 if self.pool == "bram" else self._fabric_cycles(2 * SDRAM_WORD_CLOCKS)
+
+    @property
+    def word_samples(self) -> int:
+        """Samples per stream word at the highest stream rate: one scan of
+        ``pipelines`` periods for block RAM; for SDRAM also the bandwidth
+        (every channel at this rate) and the latency (a word asked when one is
+        released is needed CACHE_FILL_WORDS - need - 1 releases later)."""
+        if self.pool == "bram":
+            return self.pipelines
+        M = self.slots
+        bandwidth = -(-self.channels * self.pool_word_cycles // M)
+        fetch = self.pipelines + -(-self.pool_fetch_cycles // M) + 1
+        lead = CACHE_FILL_WORDS - cache_need_words(self.interpolation) - 1
+        return max(self.pipelines, bandwidth, -(-fetch // lead))
+
     @property
     def refill_samples(self) -> int:
-        return refill_samples(self.interpolation, self.pipelines, self.slots)
+        queued = 0 if self.pool == "bram" else self.channels * (CACHE_FILL_WORDS + 1) * self.pool_word_cycles
+        return refill_samples(self.interpolation, self.pipelines, self.slots, self.pool_fetch_cycles, queued)
 
     @property
     def max_phase_increment(self) -> int:
-        return max_phase_increment(self.interpolation, self.pipelines)
+        return max_phase_increment(self.interpolation, self.pipelines, self.word_samples)
 
     @property
     def pool_address_width(self) -> int:

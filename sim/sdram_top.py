@@ -1,9 +1,18 @@
-"""Simulation top of the SDRAM stream pool: :class:`~rast.hdl.sdram_pool.SDRAMStreamPool`
-on LiteDRAM's ``--sim`` core (``SDRAMPHYModel`` inside), initialised by the
-CPU-less sequencer. Engine side in ``sync`` (ports ``clk``/``rst``), controller
-in ``sdram`` (``sdram_clk``/``sdram_rst``)."""
+"""Simulation tops on LiteDRAM's ``--sim`` core (``SDRAMPHYModel`` inside),
+initialised by the CPU-less sequencer.
 
-from amaranth.hdl import Module
+* :class:`SDRAMPoolTop`: :class:`~rast.hdl.sdram_pool.SDRAMStreamPool` alone.
+  Engine side in ``sync`` (ports ``clk``/``rst``), controller in ``sdram``
+  (``sdram_clk``/``sdram_rst``).
+* :class:`SDRAMEngineTop`: the replay engine with its pool in SDRAM
+  (``WindFarmReplay(pool="sdram")``), the ports of the block-RAM engine's
+  top so that the bulk wrapper (``rast.sim.bulk``) drives it unchanged. One
+  clock port: the controller's clock is the fabric clock divided by 4 (a
+  flip-flop), 50 MHz beside 200 MHz as on the board, two domains crossing
+  through the pool's ``AsyncFIFO``s.
+"""
+
+from amaranth.hdl import ClockDomain, ClockSignal, Module, ResetSignal, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -11,7 +20,8 @@ from rast.gateware.sdram.core import LiteDRAMCore
 from rast.gateware.sdram.generate import CORE_NAME, generate_core
 from rast.hdl.sdram_pool import SDRAMStreamPool, WORD_WIDTH
 
-__all__ = ["SDRAMPoolTop", "sdram_top_sources", "TOPLEVEL", "LITEDRAM_LINT_WAIVERS"]
+__all__ = ["SDRAMPoolTop", "sdram_top_sources", "TOPLEVEL", "LITEDRAM_LINT_WAIVERS",
+           "SDRAMEngineTop", "ENGINE_TOPLEVEL", "SDRAM_CLOCK_DIVIDER", "sdram_engine_sources"]
 
 TOPLEVEL = "sdram_top"
 
@@ -67,3 +77,67 @@ def sdram_top_sources(*, tag_width=6, queue_depth=16, cdelay_clocks=1):
     top = SDRAMPoolTop(core, tag_width=tag_width, queue_depth=queue_depth, cdelay_clocks=cdelay_clocks)
     text = verilog.convert(top, name=TOPLEVEL, emit_src=False)
     return {f"{TOPLEVEL}.v": text, f"{CORE_NAME}.v": litedram_for_verilator(core.verilog)}, core
+
+
+ENGINE_TOPLEVEL = "sdram_engine_top"
+#: Fabric clocks per controller clock in :class:`SDRAMEngineTop` (the
+#: contract's SDRAM bounds assume the fabric at SDRAM_FABRIC_HZ, 4 x SDRAM_CLOCK_HZ).
+SDRAM_CLOCK_DIVIDER = 4
+
+
+class SDRAMEngineTop(wiring.Component):
+    """``WindFarmReplay(pool="sdram", **kwargs)`` on LiteDRAM's simulation core.
+
+    Ports: the engine's (``i``, ``o``, ``bus``, ``overflow``, ``slot``,
+    ``pool_error``) and the core's ``init_done``, ``init_error``. The
+    controller's domain ``sdram`` runs at the fabric clock / 4, its reset held
+    for 16 fabric clocks after the fabric's.
+    """
+
+    def __init__(self, core, channels, *, cdelay_clocks=1, **kwargs):
+        from rast.hdl.replay_top import WindFarmReplay
+        self._engine = WindFarmReplay(channels, pool="sdram", **kwargs)
+        self._core = LiteDRAMCore(core, domain="sdram", cdelay_clocks=cdelay_clocks)
+        sig = self._engine.signature.members
+        super().__init__({name: sig[name] for name in ("i", "o", "bus", "overflow", "slot", "pool_error")}
+                         | {"init_done": Out(1), "init_error": Out(1)})
+
+    @property
+    def engine(self):
+        return self._engine
+
+    def elaborate(self, platform):
+        m = Module()
+        m.domains.sdram = ClockDomain("sdram", local=True)
+        div = Signal(2)
+        hold = Signal(range(17), init=16)
+        m.d.sync += div.eq(div + 1)
+        with m.If(hold != 0):
+            m.d.sync += hold.eq(hold - 1)
+        assert SDRAM_CLOCK_DIVIDER == 4
+        m.d.comb += [ClockSignal("sdram").eq(div[1]), ResetSignal("sdram").eq(hold != 0)]
+        m.submodules.engine = engine = self._engine
+        m.submodules.sdram = core = self._core
+        wiring.connect(m, engine.native, core.native)
+        for name in ("i", "bus"):
+            wiring.connect(m, wiring.flipped(getattr(self, name)), getattr(engine, name))
+        wiring.connect(m, engine.o, wiring.flipped(self.o))
+        m.d.comb += [self.overflow.eq(engine.overflow), self.slot.eq(engine.slot),
+                     self.pool_error.eq(engine.pool_error),
+                     self.init_done.eq(core.init_done), self.init_error.eq(core.init_error)]
+        return m
+
+
+def sdram_engine_sources(channels, *, cdelay_clocks=1, **kwargs):
+    """``{file: Verilog}`` of :class:`SDRAMEngineTop` (module ``sdram_engine_top``)
+    and LiteDRAM's simulation core; ``kwargs`` as for ``WindFarmReplay``."""
+    from amaranth.back import verilog
+    core = generate_core(sim=True)
+    top = SDRAMEngineTop(core, channels, cdelay_clocks=cdelay_clocks, **kwargs)
+    # Amaranth's AsyncFIFO carries the write domain's reset into the read
+    # domain through a ResetSynchronizer (asserted asynchronously, by design),
+    # while the bulk wrapper drives that reset from a flip-flop: Verilator's
+    # SYNCASYNCNET names exactly this, and is waived in this file only.
+    text = "/* verilator lint_off SYNCASYNCNET */\n" + verilog.convert(top, name=ENGINE_TOPLEVEL,
+                                                                        emit_src=False)
+    return {f"{ENGINE_TOPLEVEL}.v": text, f"{CORE_NAME}.v": litedram_for_verilator(core.verilog)}

@@ -76,3 +76,17 @@ async def replay_bulk(dut):
     if p["kind"] == "saturate":
         assert rep["overflow"] == 1, "saturation scenario did not saturate: the test would prove nothing"
     cocotb.log.info("%s", rep)
+
+
+@cocotb.test()
+async def replay_bulk_sdram(dut):
+    """The same with the engine's pool in SDRAM: also the pool's error flag
+    low and LiteDRAM's initialisation done without error."""
+    p = params()
+    sc = scenario_from_params(p)
+    summary = await BulkBench(dut).run(sc.job, timeout_s=1800)
+    rep = check_bulk_run(sc, summary, overflow_observed=summary.get("obs_overflow"))
+    flags = {k: summary.get(f"obs_{k}") for k in ("pool_error", "init_done", "init_error")}
+    assert flags == {"pool_error": 0, "init_done": 1, "init_error": 0}, \
+        f"{sc.name}: SDRAM flags at the end {flags}, want no pool error and LiteDRAM initialised"
+    cocotb.log.info("%s", rep)

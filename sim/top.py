@@ -10,18 +10,20 @@ from pathlib import Path
 
 from rast.sim.bulk import PortMap, bulk_verilog
 
-__all__ = ["TOP_MODULE", "port_map", "top_sources"]
+__all__ = ["TOP_MODULE", "port_map", "top_sources", "sdram_engine_top_sources"]
 
 TOP_MODULE = "wind_farm_replay"
 
 
-def port_map(addr_width: int) -> PortMap:
-    return PortMap(module=TOP_MODULE, in_payload="i__payload", in_valid="i__valid",
+def port_map(addr_width: int, module: str = TOP_MODULE, observe=("overflow",)) -> PortMap:
+    """The replay top's ports for the bulk wrapper; ``observe``: one-bit
+    outputs brought out (reported as ``obs_<name>`` in the run's summary)."""
+    return PortMap(module=module, in_payload="i__payload", in_valid="i__valid",
                    in_ready="i__ready", in_width=32, out_payload="o__payload",
                    out_valid="o__valid", out_ready="o__ready", out_width=32,
                    bus_addr="bus__addr", bus_addr_width=addr_width, bus_w_data="bus__w_data",
                    bus_w_stb="bus__w_stb", bus_ready="bus__ready", tie={"bus__r_stb": (1, 0)},
-                   observe={"overflow": 1}, open_outputs=("bus__r_data", "bus__r_valid", "slot"))
+                   observe={n: 1 for n in observe}, open_outputs=("bus__r_data", "bus__r_valid", "slot"))
 
 
 @lru_cache(maxsize=None)
@@ -36,6 +38,23 @@ def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
     text = _cached_verilog(channels, kwargs, lambda: verilog_text(channels, name=TOP_MODULE, **kwargs))
     aw = register_map(ReplayContract(channels=channels, **kwargs)).addr_width
     return {f"{TOP_MODULE}.v": text, "rast_bulk.v": bulk_verilog(port_map(aw), src_aw=src_aw)}, "rast_bulk"
+
+
+@lru_cache(maxsize=None)
+def sdram_engine_top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int, slots: int = 1,
+                             interpolation: str = "fir", src_aw: int = 22):
+    """``({file: text}, toplevel)`` of the engine with its pool in SDRAM
+    (:class:`rast.sim.sdram_top.SDRAMEngineTop`, LiteDRAM's simulation core)
+    inside ``rast_bulk``; ``pool_error``, ``init_done`` and ``init_error`` observed."""
+    from rast.model.fixedpoint import ReplayContract
+    from rast.model.regmap import register_map
+    from rast.sim.sdram_top import ENGINE_TOPLEVEL, sdram_engine_sources
+    kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
+                  interpolation=interpolation)
+    sources = sdram_engine_sources(channels, **kwargs)
+    aw = register_map(ReplayContract(channels=channels, pool="sdram", **kwargs)).addr_width
+    pm = port_map(aw, ENGINE_TOPLEVEL, ("overflow", "pool_error", "init_done", "init_error"))
+    return {**sources, "rast_bulk.v": bulk_verilog(pm, src_aw=src_aw)}, "rast_bulk"
 
 
 def _source_digest() -> str:
