@@ -60,6 +60,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
     p.add_argument("--dynamic-range", type=float, default=90.0,
                    help="colour scale depth of the spectrogram in dB (default 90)")
+    p.add_argument("--sdram", action="store_true",
+                   help="the streams in SDRAM: the engine's SDRAM pool on LiteDRAM's simulation core "
+                        "(controller clock = fabric / 4; docs/sdram.md)")
     p.add_argument("--netlist", action="store_true",
                    help="simulate the design as synth_ecp5 leaves it, with the ECP5 cell models, instead "
                         "of the behavioural Verilog (docs/netlist_sim.md)")
@@ -135,7 +138,7 @@ def run(args) -> int:
     from rast.sim import runner
     from rast.sim.e2e import prepare
     from rast.sim.netlist import replay_netlist_sources
-    from rast.sim.top import top_sources
+    from rast.sim.top import sdram_engine_top_sources, top_sources
     try:
         load_config(args.config)            # before anything is created
     except ConfigError as error:
@@ -145,9 +148,14 @@ def run(args) -> int:
     if args.simulator == "icarus" and "icarus" not in runner.available_simulators():
         print("rast cosim: Icarus Verilog (iverilog) is not installed", file=sys.stderr)
         return 2
+    if args.sdram and args.netlist:
+        print("rast cosim: --sdram and --netlist cannot be combined (the netlist is the block-RAM engine's)",
+              file=sys.stderr)
+        return 2
+    pool = "sdram" if args.sdram else "bram"
     t0 = time.monotonic()
     try:
-        e = prepare(config, args.seconds, channels=args.channels, slots=args.slots,
+        e = prepare(config, args.seconds, channels=args.channels, slots=args.slots, pool=pool,
                     noise_rms=args.noise_rms)
     except ValueError as error:       # the config holds no cosimulation (e.g. a PRI of no whole samples)
         print(f"rast cosim: {Path(config).name}: {error}", file=sys.stderr)
@@ -157,18 +165,20 @@ def run(args) -> int:
     c = e.scenario.contract
     print(f"rast cosim: {Path(config).name}: {e.pulse.n_pulses} pulses, {e.info['samples']:,} RTS samples "
           f"at {e.farm.sample_rate_mhz:g} MHz, {c.channels} channel(s) in {c.pipelines} pipeline(s) of "
-          f"{c.slots} slot(s), pool words {c.pool_words}, "
+          f"{c.slots} slot(s), pool words {c.pool_words}{' in SDRAM' if args.sdram else ''}, "
           f"latency {c.latency}; simulator {args.simulator}"
           f"{', synthesised netlist (synth_ecp5) with ECP5 cell models' if args.netlist else ''}", flush=True)
-    make_sources = replay_netlist_sources if args.netlist else top_sources
+    make_sources = (replay_netlist_sources if args.netlist else sdram_engine_top_sources if args.sdram
+                    else top_sources)
     sources, top = make_sources(c.channels, slots=c.slots, pool_words=c.pool_words,
                                 max_delay=c.max_delay, interpolation=c.interpolation,
                                 max_tap=c.max_tap)
+    kind = "-netlist" if args.netlist else "-sdram" if args.sdram else ""
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
-                     label=f"cosim{c.channels}m{c.slots}{'-netlist' if args.netlist else ''}", bulk=True)
+                     label=f"cosim{c.channels}m{c.slots}{kind}", bulk=True)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
-    params = dict(config=config, seconds=args.seconds, channels=args.channels, slots=args.slots,
+    params = dict(config=config, seconds=args.seconds, channels=args.channels, slots=args.slots, pool=pool,
                   overlap=args.overlap,
                   noise_rms=args.noise_rms,
                   require_peaks=bool(args.check_doppler))
@@ -195,7 +205,8 @@ def run(args) -> int:
             written.append("spectrogram.png")
     lines = [f"rast cosim {config}",
              f"simulator           {args.simulator}",
-             f"design              {'netlist after synth_ecp5, ECP5 cell models' if args.netlist else 'behavioural Verilog'}",
+             f"design              {'netlist after synth_ecp5, ECP5 cell models' if args.netlist else 'behavioural Verilog'}"
+             f"{', stream pool in SDRAM (LiteDRAM simulation core)' if args.sdram else ''}",
              f"radar time          {args.seconds:g} s ({e.pulse.n_pulses} pulses)",
              f"RTS samples         {e.info['samples']:,} through the RTL"]
     if rep:

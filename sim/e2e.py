@@ -47,22 +47,26 @@ class E2E:
     info: dict = field(default_factory=dict)
 
 
-def contract_for(farm_streams, channels: int | None = None, slots: int = 1) -> ReplayContract:
+def contract_for(farm_streams, channels: int | None = None, slots: int = 1, pool: str = "bram") -> ReplayContract:
     """The smallest replay block the farm fits, with ``slots`` channels per
     pipeline (sample rate not stated: it changes no integer, and one build
-    serves every rate)."""
-    return dataclasses.replace(farm_streams.smallest_contract(channels), slots=slots, sample_rate_hz=0)
+    serves every rate; the SDRAM bounds then assume the fastest fabric) and
+    its pool in ``pool`` (an SDRAM pool's words a power of two)."""
+    c = dataclasses.replace(farm_streams.smallest_contract(channels), slots=slots, sample_rate_hz=0)
+    if pool == "sdram":
+        c = dataclasses.replace(c, pool="sdram", pool_words=1 << (c.pool_words - 1).bit_length())
+    return c
 
 
 def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots: int = 1,
-            amplitude: float = 0.4,
+            pool: str = "bram", amplitude: float = 0.4,
             noise_rms: float = 0.0, seed: int = 1, gap_thresh: int = 4, stall_thresh: int = 4) -> E2E:
     from rast.model.config import load_config
     from rast.model.stream import build_farm_streams
     farm = load_config(config)
     fs = build_farm_streams(farm)
     manifest = fs.manifest()
-    c = contract_for(fs, channels, slots)
+    c = contract_for(fs, channels, slots, pool)
     writes = manifest_to_register_writes(manifest, c, streams=[s.words for s in fs.streams])
     r = farm.radar
     bw = min(20.0, farm.sample_rate_mhz)          # Table 4.1: 20 MHz linear chirp up
@@ -90,7 +94,8 @@ def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots:
                   timeout=10_000)
     sc = Scenario(f"e2e-{Path(config).stem}-{seconds:g}s", c, job, farm.sample_rate_hz)
     return E2E(str(config), farm, fs, sc, pulse, gate_list,
-               info=dict(channels=c.channels, slots=c.slots, pool_words=c.pool_words, max_delay=c.max_delay,
+               info=dict(channels=c.channels, slots=c.slots, pool=c.pool, pool_words=c.pool_words,
+                         max_delay=c.max_delay,
                          max_tap=c.max_tap, latency=c.latency, pulses=pulse.n_pulses,
                          samples=job.n_in, samples_per_pri=pulse.samples_per_pri, active=active))
 

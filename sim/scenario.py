@@ -26,7 +26,7 @@ from rast.model.loadplan import manifest_to_register_writes, pool_layout, free_r
 from .bulk import BulkJob
 
 __all__ = ["TEST_CONTRACT", "Scenario", "job_inputs", "model_outputs", "ModelBeside", "random_scenario",
-           "farm_scenario"]
+           "farm_scenario", "worst_fetch_scenario"]
 
 
 @dataclass
@@ -356,3 +356,61 @@ def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int
                   flush=c.latency + c.max_delay + c.max_tap + 8, regs=regs,
                   gap_thresh=gap_thresh, gap_max=3, stall_thresh=stall_thresh, seed=seed + 7)
     return Scenario(f"farm-{channels}ch-m{c.slots}-seed{seed}", c, job, fs_mhz * 1e6)
+
+
+#: Samples between two host writes of the worst-case scenario's stream load.
+HOST_WRITE_SAMPLES = 4
+
+
+def worst_fetch_scenario(channels: int, seed: int, *, interpolation: str = "linear", pulses: int = 80,
+                         gap_thresh: int = 0, stall_thresh: int = 0, contract: dict | None = None) -> Scenario:
+    """The fetch schedule the contract's bounds are derived for (docs/sdram.md):
+    every channel at the highest stream rate (PHASE_INC = max_phase_increment)
+    from start to end; all channels switched at once at the start and again
+    at mid-run, so that every cache refills together; between the two, the
+    host writes a stream of a quarter of the pool (channel 0's reload,
+    switched at its period boundary), a word every HOST_WRITE_SAMPLES
+    samples (faster than the SDRAM takes them), while all channels play.
+    No valid gaps by default: a sample every period is the fastest consumption."""
+    rng = np.random.default_rng(seed)
+    c = ReplayContract(channels=channels, interpolation=interpolation, **(contract or TEST_CONTRACT))
+    rmap = register_map(c)
+    a = rmap.addr
+    inc = c.max_phase_increment
+    pool = PoolTracker(c)
+    n_body = pulses * 240
+
+    def load_all(at, longest):
+        out = []
+        for ch in range(channels):
+            length = int(rng.integers(c.min_stream_length, longest + 1))
+            base = pool.place(ch, length, force=True)
+            if base is None:
+                raise ValueError(f"worst-case scenario: no room in a {c.pool_words}-word pool for channel {ch}")
+            out += [(at, *w) for w in _stream_load(rmap, ch, _random_words(rng, length), length, inc, base,
+                                                   force=True)]
+        return out
+
+    regs = load_all(0, 24)
+    regs += [(0, a("GAIN", ch), int(rng.integers(fx.GAIN.max // 8, fx.GAIN.max // 4))) for ch in range(channels)]
+    regs += [(0, a("DELAY", ch), int(rng.integers(0, c.max_tap + 1))) for ch in range(channels)]
+    regs += [(0, a("COMMON_DELAY"), int(rng.integers(0, c.max_delay + 1))), (0, a("APPLY"), 1)]
+    # the host's stream: one write every HOST_WRITE_SAMPLES samples (the
+    # wrapper holds the input back while a write waits, so writes in one
+    # sample would stop consumption), faster than the SDRAM takes them
+    big = c.pool_words // 4
+    base = pool.place(0, big)
+    load = _stream_load(rmap, 0, _random_words(rng, big), big, inc, base)
+    start = n_body // 4
+    if start + HOST_WRITE_SAMPLES * len(load) >= n_body // 2:
+        raise ValueError(f"worst-case scenario: {pulses} pulses leave no room for the host's "
+                         f"{len(load)} writes; give it more pulses")
+    regs += [(start + HOST_WRITE_SAMPLES * k, *w) for k, w in enumerate(load)]
+    regs += load_all(n_body // 2, 96)
+    cfg = PulseConfig(sample_rate_mhz=20, prf_hz=20e6 / 240, pulse_width_us=240 / 20, shape="chirp",
+                      bandwidth_mhz=5.0, amplitude=0.5, noise_rms=0.01, seed=seed, n_pulses=pulses)
+    train = generate(cfg)
+    job = BulkJob(src=train.words(), active=240, pri=240, pulses=pulses,
+                  flush=c.latency + c.max_delay + c.max_tap + 8, regs=regs, gap_thresh=gap_thresh,
+                  gap_max=3, stall_thresh=stall_thresh, seed=seed + 3)
+    return Scenario(f"worst-{channels}ch-m{c.slots}-{interpolation}-seed{seed}", c, job, 20e6)

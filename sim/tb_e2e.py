@@ -30,7 +30,7 @@ async def e2e(dut):
     d = run_dir()
     t0 = time.monotonic()
     e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1),
-                noise_rms=p.get("noise_rms", 0.0))
+                pool=p.get("pool", "bram"), noise_rms=p.get("noise_rms", 0.0))
     t_prep = time.monotonic() - t0
     cocotb.log.info("e2e %s: %s", e.scenario.name, e.info)
     beside = ModelBeside(e.scenario, d)          # the model on the other core, during the RTL run
@@ -43,6 +43,11 @@ async def e2e(dut):
     rep = check_bulk_run(e.scenario, summary, expected=expected,
                          overflow_observed=summary.get("obs_overflow"),
                          min_active=e.pulse.n_pulses * max(1, e.pulse.pulse_samples // 4))
+    if e.scenario.contract.pool == "sdram":
+        flags = {k: summary.get(f"obs_{k}") for k in ("pool_error", "init_done", "init_error")}
+        if flags != {"pool_error": 0, "init_done": 1, "init_error": 0}:
+            Scoreboard(e.scenario.name)._fail(f"SDRAM flags at the end {flags}, want no pool error and "
+                                              "LiteDRAM initialised")
     _, idx, gi, gq = bulk.read_outputs(d)
     yi, yq, _ = expected
     rtl = receiver(e, idx, gi, gq)
@@ -95,6 +100,7 @@ async def e2e(dut):
 async def bench(dut):
     """Only the RTL run of the e2e job (no model): the benchmark's cosim figure."""
     p = params()
-    e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1))
+    e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1),
+                pool=p.get("pool", "bram"))
     summary = await BulkBench(dut).run(e.scenario.job, progress=True)
     save_json(run_dir() / "bench.json", dict(summary, info=e.info))

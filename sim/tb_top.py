@@ -15,13 +15,17 @@ import cocotb
 import numpy as np
 
 from rast.sim import bulk
-from rast.sim.scenario import Scenario, farm_scenario, model_outputs, random_scenario
+from rast.sim.scenario import Scenario, farm_scenario, model_outputs, random_scenario, worst_fetch_scenario
 from rast.sim.testbench import BulkBench, Scoreboard, params, run_dir
 
 __all__ = ["scenario_from_params", "check_bulk_run"]
 
 
 def scenario_from_params(p: dict) -> Scenario:
+    if p["kind"] == "worst":
+        return worst_fetch_scenario(p["channels"], p["seed"], interpolation=p.get("interpolation", "linear"),
+                                    pulses=p.get("pulses", 80), gap_thresh=p["gap_thresh"],
+                                    stall_thresh=p["stall_thresh"], contract=p.get("contract"))
     if p["kind"] == "farm":
         return farm_scenario(p["channels"], p["seed"], gap_thresh=p["gap_thresh"],
                              stall_thresh=p["stall_thresh"], contract=p.get("contract"))

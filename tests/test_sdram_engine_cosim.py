@@ -22,13 +22,13 @@ from rast.sim.top import sdram_engine_top_sources
 MODULE = "rast.sim.tb_top"
 
 
-def _run(channels, kind, seed, *, slots, pulses, gaps=(48, 48), model_pool="sdram"):
+def _run(channels, kind, seed, *, slots, pulses, gaps=(48, 48), model_pool="sdram", interpolation="fir"):
     contract = dict(TEST_CONTRACT, slots=slots)
-    sources, top = sdram_engine_top_sources(channels, **contract)
+    sources, top = sdram_engine_top_sources(channels, interpolation=interpolation, **contract)
     cocotb_run(sources, top, MODULE, "replay_bulk_sdram", simulator="verilator", bulk=True,
-               label=f"sdram_engine{channels}m{slots}", name=f"sdram-{kind}-{channels}ch-m{slots}-s{seed}",
+               label=f"sdram_engine{channels}m{slots}{interpolation}", name=f"sdram-{kind}-{channels}ch-m{slots}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=gaps[0],
-                              stall_thresh=gaps[1], pulses=pulses, contract=dict(contract, pool=model_pool)))
+                              stall_thresh=gaps[1], pulses=pulses, interpolation=interpolation, contract=dict(contract, pool=model_pool)))
 
 
 @pytest.mark.parametrize("kind, seed", [("random", 71), ("farm", 72)])
@@ -42,3 +42,12 @@ def test_a_model_that_expects_block_ram_latency_sees_the_sdram_one():
     latency must show as mismatches, so the comparison above can fail."""
     with pytest.raises(runner.SimulationFailed, match=r"mismatch|differ"):
         _run(5, "random", 71, slots=4, pulses=60, model_pool="bram")
+
+
+def test_worst_fetch_schedule_starves_no_channel():
+    """docs/sdram.md's worst case: 12 channels (3 pipelines of 4 slots) all at
+    the highest stream rate, which for linear interpolation is the SDRAM
+    bandwidth bound; every cache refilled at once twice; a quarter-pool
+    stream written back to back by the host while all play. A word later
+    than the contract's bound would be a mismatch."""
+    _run(12, "worst", 73, slots=4, pulses=80, gaps=(0, 0), interpolation="linear")
