@@ -245,3 +245,72 @@ def test_hardware_core_elaborates(core):
     dut = LiteDRAMCore(core, dq=IOPort(16, name="sdram_dq"))
     text = rtlil.convert(dut, name="sdram_hw")
     assert "litedram_core" in text and "sdram_dq" in text
+
+
+# ------------------------------------------------------- the engine's contract
+
+from rast.model import fixedpoint as fx                        # noqa: E402
+from rast.model.fixedpoint import ReplayContract              # noqa: E402
+
+
+@pytest.mark.parametrize("kwargs, msg", [
+    (dict(pool="dram"), r"Pool must be one of bram, sdram, not 'dram'"),
+    (dict(pool="sdram", pool_words=3 * 16384), r"Pool words of an SDRAM pool must be a power of two"),
+    (dict(pool="sdram", pool_words=1 << 24), r"Pool words must be at most 8388608"),
+    (dict(pool="bram", pool_words=1 << 23), r"Pool words must be at most 1048576"),
+])
+def test_contract_pool_parameters(kwargs, msg):
+    with pytest.raises(ValueError, match=msg):
+        ReplayContract(**kwargs)
+
+
+SHAPES = [dict(channels=n, slots=m, interpolation=i, sample_rate_hz=sr)
+          for n, m, i, sr in [(4, 1, "fir", 0), (5, 4, "fir", 0), (12, 4, "linear", 0), (64, 10, "fir", 20_000_000),
+                              (64, 10, "linear", 20_000_000), (10, 10, "hold", 10_000_000), (255, 64, "linear", 0)]]
+
+
+@pytest.mark.parametrize("shape", SHAPES, ids=lambda s: f"{s['channels']}ch-m{s['slots']}-{s['interpolation']}")
+def test_sdram_contract_keeps_its_own_promises(shape):
+    """What the SDRAM contract derives satisfies the conditions docs/sdram.md
+    states, recomputed here from their parts: the fetch bound covers every
+    word that can be ahead of a fetch plus the refreshes of that window; at
+    the highest stream rate the channels ask no more than the pool's
+    write-interleaved word rate, and a word asked at a release arrives before
+    the consumer needs it; a refill covers every cache's fill queued ahead;
+    and the SDRAM never allows more than block RAM."""
+    b = ReplayContract(pool="bram", **shape)
+    s = ReplayContract(pool="sdram", **shape)
+    ratio = (s.clock_hz or fx.SDRAM_FABRIC_HZ) / fx.SDRAM_CLOCK_HZ
+    ahead = fx.SDRAM_REQUEST_FIFO + 3 * fx.SDRAM_QUEUE_DEPTH + 1
+    busy = fx.SDRAM_PATH_CLOCKS + ahead * fx.SDRAM_WORD_CLOCKS
+    clocks = fx.sdram_fetch_clocks()
+    refreshes = (clocks - busy) // fx.SDRAM_REFRESH_CLOCKS
+    assert refreshes * fx.SDRAM_REFRESH_INTERVAL_CLOCKS >= clocks           # one per interval, and one more
+    assert s.pool_fetch_cycles >= fx.POOL_FETCH_CYCLES + clocks * ratio
+    per_word = 2 * fx.SDRAM_WORD_CLOCKS * ratio                            # fabric clocks
+    highest_rate = s.max_phase_increment / 2 ** fx.PHASE_FRAC_BITS         # words per sample
+    assert s.channels * highest_rate / s.slots <= 1 / per_word
+    lead = fx.CACHE_FILL_WORDS - fx.cache_need_words(s.interpolation) - 1
+    assert lead / highest_rate * s.slots >= s.pool_fetch_cycles + s.pipelines * s.slots
+    assert s.refill_samples * s.slots >= s.pool_fetch_cycles + s.channels * (fx.CACHE_FILL_WORDS + 1) * per_word
+    assert s.refill_samples > b.refill_samples and s.max_phase_increment <= b.max_phase_increment
+    assert ReplayContract.from_dict(s.to_dict()) == s and s.to_dict()["pool"] == "sdram"
+
+
+def test_sdram_bounds_follow_the_fabric_clock():
+    """The bounds are in controller clocks: a fabric half as fast waits half as
+    many fabric clocks (the engine's own path aside)."""
+    fast = ReplayContract(channels=10, slots=10, sample_rate_hz=20_000_000, pool="sdram")
+    slow = ReplayContract(channels=10, slots=10, sample_rate_hz=10_000_000, pool="sdram")
+    assert (fast.pool_fetch_cycles - fx.POOL_FETCH_CYCLES) == 2 * (slow.pool_fetch_cycles - fx.POOL_FETCH_CYCLES)
+    assert ReplayContract(channels=10, slots=10, pool="sdram").pool_fetch_cycles == fast.pool_fetch_cycles
+
+
+def test_an_sdram_engine_has_no_power_up_streams():
+    from rast.hdl.replay_top import WindFarmReplay
+    from rast.model.powerup import ChannelInit
+    with pytest.raises(ValueError, match="an SDRAM pool powers up empty"):
+        WindFarmReplay(2, pool="sdram", pool_words=4096, init=[ChannelInit(words=(1, 2, 3))])
+    e = WindFarmReplay(2, pool="sdram", pool_words=4096)
+    assert {"native", "pool_error"} <= set(e.signature.members.keys())
+    assert "native" not in WindFarmReplay(2, pool_words=4096).signature.members.keys()
