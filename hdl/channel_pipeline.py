@@ -152,6 +152,9 @@ class ChannelPipeline(wiring.Component):
         Per slot, the state's pending switch and bank (mirrors for read-back).
     sum : Out(IQ(sum width))
         The slot accumulator: the period's sum after the last slot.
+    underflow : Out(1)
+        SDRAM pool only (0 otherwise): a read that matters found its cache
+        word not yet arrived, in the clock before.
     """
 
     def __init__(self, contract, index, slot_inits, regs_layout):
@@ -184,6 +187,7 @@ class ChannelPipeline(wiring.Component):
             "pending": Out(1).array(M),
             "bank": Out(1).array(M),
             "sum": Out(IQ(self._sum_width)),
+            "underflow": Out(1),
         })
 
     @property
@@ -491,9 +495,29 @@ class ChannelPipeline(wiring.Component):
                                     else self.fill_tag.pos)]
             caches.append(mem.read_port(domain="comb"))
 
-        def cache_read(port, pos, name):
+        # ---- arrival check (SDRAM pool): a bit per cache position, cleared
+        # when its fetch is granted, set when the word arrives. A read that
+        # matters (a playing channel's step, the FIR's MAC) of a position
+        # whose word has not arrived raises ``underflow`` (for a clock; the
+        # register file keeps it in STATUS): a fetch later than the
+        # contract's bound. The block-RAM pool's fixed latency
+        # needs no check.
+        arrival = c.pool == "sdram"
+        checks = []
+        if arrival:
+            arrived = Signal(depth, name="arrived")
+            playing = Signal(name="playing")
+            m.d.comb += playing.eq(rg.enable & present_v)
+            with m.If(a["grant"]):
+                m.d.sync += arrived.bit_select(Cat(st.f_pos, vslot[:SB]) if M > 1 else st.f_pos, 1).eq(0)
+            with m.If(self.fill_en):
+                m.d.sync += arrived.bit_select(Cat(self.fill_tag.pos, self.fill_tag.slot[:SB]) if M > 1
+                                               else self.fill_tag.pos, 1).eq(1)
+
+        def cache_read(port, pos, name, matters=None):
             """The cache word at ``pos`` of the visiting slot, the address
-            registered in the visit, the word a clock later in a register."""
+            registered in the visit, the word a clock later in a register
+            (``matters``: the read is checked for an arrived word)."""
             # keep: else synthesis merges the register into the distributed
             # RAM's read port and moves it after the RAM, the address logic
             # and the RAM then in one clock (7.7 ns)
@@ -502,6 +526,10 @@ class ChannelPipeline(wiring.Component):
             word = Signal(IQ(STREAM_WIDTH), name=name)
             m.d.comb += port.addr.eq(addr)
             m.d.sync += word.eq(port.data)
+            if arrival and matters is not None:
+                chk = Signal(name=f"{name}_checked")
+                m.d.sync += chk.eq(matters & playing)
+                checks.append((addr, chk))
             return word
 
         # ---- the word: a + round((b - a) * f, 16) -------------------------------
@@ -512,8 +540,9 @@ class ChannelPipeline(wiring.Component):
             a2 = _delay(m, st.u0, 2, "word_a")
             b2 = _delay(m, st.u1, 2, "word_b")
         else:
-            a2 = cache_read(caches[0], st.cpos, "word_a")
-            b2 = cache_read(caches[1], st.cpos + 1, "word_b") if interp == "linear" else a2
+            step_read = step_v & ~mute_out
+            a2 = cache_read(caches[0], st.cpos, "word_a", step_read)
+            b2 = cache_read(caches[1], st.cpos + 1, "word_b", step_read) if interp == "linear" else a2
         f2 = _delay(m, f_op, 2, "word_f")
         mute = _delay(m, mute_out, WORD_CYCLES - 1, "word_mute")        # beside the word's last register
         word = Signal(IQ(STREAM_WIDTH), name="word")
@@ -541,6 +570,9 @@ class ChannelPipeline(wiring.Component):
         # ---- the FIR's serial MAC: one tap per visit of a slot -------------------
         if fir:
             self._elaborate_mac(m, st, caches[0], cache_read, mac_wr, mac_dest, mac_val)
+        if checks:
+            late = Cat(*[chk & ~arrived.bit_select(addr, 1) for addr, chk in checks]).any()
+            m.d.sync += self.underflow.eq(late)
 
         # ---- the window: written once per step, read at each slot's tap ---------
         # A slot's tap is read WORD_CYCLES - latency clocks after its visit, so
@@ -619,7 +651,7 @@ class ChannelPipeline(wiring.Component):
             parts.append(part)
         coef = Signal(signed(FIR_COEF_WIDTH), name="mac_coef")
         m.d.sync += coef.eq(Array(parts)[rom_high])
-        word = _delay(m, cache_read(cache, st.rpos, "mac_word"), 1, "mac_word")   # beside the ROM's second level
+        word = _delay(m, cache_read(cache, st.rpos, "mac_word", st.issuing), 1, "mac_word")   # beside the ROM's second level
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),

@@ -134,6 +134,8 @@ class RegisterFile(wiring.Component):
         An output sample saturated (its saturation register is loaded) in this cycle.
     overflow : Out(1)
         The sticky overflow flag.
+    underflow_set : In(1), underflow : Out(1)
+        The same for STATUS.underflow (a stream word read before it arrived).
     """
 
     def __init__(self, rmap: RegisterMap, *, write_delay=1, mirror_delay=1, status_delay=1, groups=None):
@@ -166,6 +168,8 @@ class RegisterFile(wiring.Component):
             "wr_data": Out(2 * STREAM_WIDTH),
             "overflow_set": In(1),
             "overflow": Out(1),
+            "underflow_set": In(1),
+            "underflow": Out(1),
         })
 
     @property
@@ -381,10 +385,12 @@ class RegisterFile(wiring.Component):
         clear = Signal()
         m.d.comb += clear.eq(st.valid & ~st.write & (st.addr == status.addr))
         m.d.sync += flag.eq(Mux(clear, 0, flag) | self.overflow_set)
+        m.d.sync += self.underflow.eq(Mux(clear, 0, self.underflow) | self.underflow_set)
 
         # Read-back: three parts, each sampled at its own stage, each a
         # registered selection over the registers (SELECT_LEVELS levels), ORed.
-        hooks_mirror, hooks_status = {}, {("STATUS", None, "overflow"): flag}
+        hooks_mirror, hooks_status = {}, {("STATUS", None, "overflow"): flag,
+                                          ("STATUS", None, "underflow"): self.underflow}
         for l in range(N):
             hooks_mirror[("CTRL", l, "swap")] = self.pending[l]
             hooks_mirror[("CTRL", l, "bank")] = self.bank[l]

@@ -75,6 +75,9 @@ class WindFarmReplay(wiring.Component):
     pool_error : Out(1), SDRAM pool only
         Sticky: a fetch request or a stream word found no room, or the pool
         lost an answer (cannot happen; the cosimulation asserts it stays 0).
+    underflow : Out(1), SDRAM pool only
+        STATUS.underflow: a channel read a stream word before it arrived (a
+        fetch later than the contract's bound), sticky until STATUS is read.
     """
 
     def __init__(self, channels=4, *, slots=1, pool_words=ReplayContract.pool_words,
@@ -108,7 +111,7 @@ class WindFarmReplay(wiring.Component):
             "overflow": Out(1),
             "slot": Out(range(max(2, slots))),
             **({"native": Out(native_port_signature(SDRAM_ADDRESS_WIDTH, WORD_WIDTH)),
-                "pool_error": Out(1)} if pool == "sdram" else {}),
+                "pool_error": Out(1), "underflow": Out(1)} if pool == "sdram" else {}),
         })
 
     @property
@@ -323,6 +326,10 @@ class WindFarmReplay(wiring.Component):
             ra = ra | Mux(pl.req_valid, pl.req_addr, 0)
             rt = rt | Mux(pl.req_valid, tag, 0)
         m.d.sync += [req_valid.eq(rv), req_addr.eq(ra), req_tag.eq(rt)]
+
+        if sdram:
+            m.d.comb += [regs.underflow_set.eq(Cat(pl.underflow for pl in pipes).any()),
+                         self.underflow.eq(regs.underflow)]
 
         # ---- the sum over the pipelines, saturation, the output FIFO --------------
         assert ACCEPT_LAG + pipes[0].sum_cycles + tree_levels(P) + 2 == K

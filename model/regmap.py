@@ -140,7 +140,11 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                          "fixed latency L in samples"),),
                  "echo of channel l appears L + COMMON_DELAY + DELAY[l] samples after its input"),
         Register("STATUS", 0x03, (Field("overflow", 0, 1, "rc", 0,
-                                        "an output sample saturated since the last read"),),
+                                        "an output sample saturated since the last read"),
+                                  Field("underflow", 1, 1, "rc", 0,
+                                        "a channel read a stream word that had not arrived from the pool "
+                                        "since the last read (SDRAM pool: a fetch later than the "
+                                        "contract's bound; never with block RAM)")),
                  "sticky status, cleared by reading"),
         Register("APPLY", 0x04, (Field("delays", 0, 1, "wo", 0,
                                        "write 1: COMMON_DELAY and all channels' DELAY take effect in the same sample"),),

@@ -89,7 +89,7 @@ class SDRAMEngineTop(wiring.Component):
     """``WindFarmReplay(pool="sdram", **kwargs)`` on LiteDRAM's simulation core.
 
     Ports: the engine's (``i``, ``o``, ``bus``, ``overflow``, ``slot``,
-    ``pool_error``) and the core's ``init_done``, ``init_error``. The
+    ``pool_error``, ``underflow``) and the core's ``init_done``, ``init_error``. The
     controller's domain ``sdram`` runs at the fabric clock / 4, its reset held
     for 16 fabric clocks after the fabric's.
     """
@@ -99,7 +99,8 @@ class SDRAMEngineTop(wiring.Component):
         self._engine = WindFarmReplay(channels, pool="sdram", **kwargs)
         self._core = LiteDRAMCore(core, domain="sdram", cdelay_clocks=cdelay_clocks)
         sig = self._engine.signature.members
-        super().__init__({name: sig[name] for name in ("i", "o", "bus", "overflow", "slot", "pool_error")}
+        super().__init__({name: sig[name] for name in ("i", "o", "bus", "overflow", "slot", "pool_error",
+                                                                 "underflow")}
                          | {"init_done": Out(1), "init_error": Out(1)})
 
     @property
@@ -123,7 +124,7 @@ class SDRAMEngineTop(wiring.Component):
             wiring.connect(m, wiring.flipped(getattr(self, name)), getattr(engine, name))
         wiring.connect(m, engine.o, wiring.flipped(self.o))
         m.d.comb += [self.overflow.eq(engine.overflow), self.slot.eq(engine.slot),
-                     self.pool_error.eq(engine.pool_error),
+                     self.pool_error.eq(engine.pool_error), self.underflow.eq(engine.underflow),
                      self.init_done.eq(core.init_done), self.init_error.eq(core.init_error)]
         return m
 

@@ -22,11 +22,12 @@ from rast.sim.top import sdram_engine_top_sources
 MODULE = "rast.sim.tb_top"
 
 
-def _run(channels, kind, seed, *, slots, pulses, gaps=(48, 48), model_pool="sdram", interpolation="fir"):
-    contract = dict(TEST_CONTRACT, slots=slots)
+def _run(channels, kind, seed, *, slots, pulses, gaps=(48, 48), model_pool="sdram", interpolation="fir",
+         sample_rate_hz=0):
+    contract = dict(TEST_CONTRACT, slots=slots, sample_rate_hz=sample_rate_hz)
     sources, top = sdram_engine_top_sources(channels, interpolation=interpolation, **contract)
     cocotb_run(sources, top, MODULE, "replay_bulk_sdram", simulator="verilator", bulk=True,
-               label=f"sdram_engine{channels}m{slots}{interpolation}", name=f"sdram-{kind}-{channels}ch-m{slots}-s{seed}",
+               label=f"sdram_engine{channels}m{slots}{interpolation}{sample_rate_hz or ''}", name=f"sdram-{kind}-{channels}ch-m{slots}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=gaps[0],
                               stall_thresh=gaps[1], pulses=pulses, interpolation=interpolation, contract=dict(contract, pool=model_pool)))
 
@@ -51,3 +52,14 @@ def test_worst_fetch_schedule_starves_no_channel():
     stream written back to back by the host while all play. A word later
     than the contract's bound would be a mismatch."""
     _run(12, "worst", 73, slots=4, pulses=80, gaps=(0, 0), interpolation="linear")
+
+
+def test_a_prefetch_below_the_bound_raises_the_underflow_flag():
+    """The engine built for a 1 MHz fabric (250 kS/s x 4 slots), so that its
+    contract counts on an SDRAM 50 times faster than the fabric (a fetch
+    bound of 34 clocks, a refill of 102 samples), run with the controller at
+    a quarter of the fabric clock: after the switches at the start the words
+    come later than the refill, the channels read them before they are there,
+    and STATUS.underflow says so (the flag is checked before the samples)."""
+    with pytest.raises(runner.SimulationFailed, match=r"underflow': 1"):
+        _run(5, "random", 71, slots=4, pulses=60, sample_rate_hz=250_000)
