@@ -52,7 +52,7 @@ class WindFarmReplay(wiring.Component):
         parent defines it and connects a LiteDRAM core); there are no
         power-up streams, and bus accesses wait while a stream word is on
         its way into the pool, so that it is queued before anything a later
-        access starts (a switch's first fetch) .
+        access starts (a switch's first fetch).
     init : list of ChannelInit, optional
         Power-up streams (in the pool at their bases) and register values.
     init_common_delay : int
