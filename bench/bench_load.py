@@ -47,7 +47,7 @@ def realistic_64() -> dict:
 
 def farms():
     for name in ("two_windmills.toml", "sec4_3_4_four_windmills.toml", "farm_atc_sband.toml",
-                 "farm_layout.toml"):
+                 "farm_layout.toml", "farm_sdram_64.toml"):
         yield name, tomllib.loads((EXAMPLES / name).read_text())
     yield "realistic 64 (3 x 15 scatterers, flashes)", realistic_64()
 
