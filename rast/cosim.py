@@ -63,6 +63,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sdram", action="store_true",
                    help="the streams in SDRAM: the engine's SDRAM pool on LiteDRAM's simulation core "
                         "(controller clock = fabric / 4; docs/sdram.md)")
+    p.add_argument("--reload-at", type=float, default=None, metavar="SECONDS",
+                   help="reload every stream at this radar time (into the other half of a pool twice "
+                        "the size, a register write per sample, each channel switched at its period "
+                        "boundary)")
     p.add_argument("--netlist", action="store_true",
                    help="simulate the design as synth_ecp5 leaves it, with the ECP5 cell models, instead "
                         "of the behavioural Verilog (docs/netlist_sim.md)")
@@ -156,7 +160,7 @@ def run(args) -> int:
     t0 = time.monotonic()
     try:
         e = prepare(config, args.seconds, channels=args.channels, slots=args.slots, pool=pool,
-                    noise_rms=args.noise_rms)
+                    reload_s=args.reload_at, noise_rms=args.noise_rms)
     except ValueError as error:       # the config holds no cosimulation (e.g. a PRI of no whole samples)
         print(f"rast cosim: {Path(config).name}: {error}", file=sys.stderr)
         return 2
@@ -179,6 +183,7 @@ def run(args) -> int:
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
     params = dict(config=config, seconds=args.seconds, channels=args.channels, slots=args.slots, pool=pool,
+                  reload_s=args.reload_at,
                   overlap=args.overlap,
                   noise_rms=args.noise_rms,
                   require_peaks=bool(args.check_doppler))
@@ -208,6 +213,8 @@ def run(args) -> int:
              f"design              {'netlist after synth_ecp5, ECP5 cell models' if args.netlist else 'behavioural Verilog'}"
              f"{', stream pool in SDRAM (LiteDRAM simulation core)' if args.sdram else ''}",
              f"radar time          {args.seconds:g} s ({e.pulse.n_pulses} pulses)",
+             *([f"reload              every stream again from {args.reload_at:g} s "
+                f"({e.info['reload_writes']:,} register writes, one per sample)"] if args.reload_at is not None else []),
              f"RTS samples         {e.info['samples']:,} through the RTL"]
     if rep:
         lines += [f"samples compared    {rep['compared']:,} (per-pulse range-gate samples, as integers)",

@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rast.model.fixedpoint import ReplayContract
+from rast.model.fixedpoint import ReplayContract, pool_words_for
 from rast.model.pulses import PulseConfig, generate
-from rast.model.loadplan import manifest_to_register_writes
+from rast.model.loadplan import manifest_to_register_writes, pool_layout, stream_writes
+from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
 
 from .bulk import MAX_CAP, BulkJob
 from .scenario import Scenario
@@ -47,26 +48,47 @@ class E2E:
     info: dict = field(default_factory=dict)
 
 
-def contract_for(farm_streams, channels: int | None = None, slots: int = 1, pool: str = "bram") -> ReplayContract:
+def contract_for(farm_streams, channels: int | None = None, slots: int = 1, pool: str = "bram",
+                 copies: int = 1) -> ReplayContract:
     """The smallest replay block the farm fits, with ``slots`` channels per
     pipeline (sample rate not stated: it changes no integer, and one build
-    serves every rate; the SDRAM bounds then assume the fastest fabric) and
-    its pool in ``pool`` (an SDRAM pool's words a power of two)."""
+    serves every rate; the SDRAM bounds then assume the fastest fabric), its
+    pool in ``pool`` (an SDRAM pool's words a power of two) and holding
+    ``copies`` of every stream (2: a reload beside the streams playing)."""
     c = dataclasses.replace(farm_streams.smallest_contract(channels), slots=slots, sample_rate_hz=0)
+    words = sum(s.plan.length for s in farm_streams.streams)
     if pool == "sdram":
-        c = dataclasses.replace(c, pool="sdram", pool_words=1 << (c.pool_words - 1).bit_length())
+        c = dataclasses.replace(c, pool="sdram", pool_words=max(16, 1 << (copies * words - 1).bit_length()))
+    elif copies > 1:
+        c = dataclasses.replace(c, pool_words=pool_words_for(copies * words))
     return c
 
 
+def reload_writes(farm_streams, c: ReplayContract, at: int, first_base: int) -> list:
+    """A reload of every stream while the farm plays: the same words again
+    from pool address ``first_base`` on (where nothing plays), one register
+    write per sample from sample ``at`` (the bulk wrapper holds the input
+    while a write waits, so writes in one sample would stop the radar's time
+    line), each channel switched to its copy at its period boundary (its CRC
+    checked first). Returns ``[(sample, addr, value), ...]``."""
+    rmap = register_map(c)
+    lengths = [s.plan.length for s in farm_streams.streams]
+    w = []
+    for ch, (s, base) in enumerate(zip(farm_streams.streams, pool_layout(lengths, c.pool_words - first_base))):
+        w += stream_writes(rmap, ch, first_base + base, list(s.words), s.plan.phase_increment)
+        w.append((rmap.addr("CTRL", ch), CTRL_ENABLE | CTRL_SWAP))
+    return [(at + k, addr, value) for k, (addr, value) in enumerate(w)]
+
+
 def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots: int = 1,
-            pool: str = "bram", amplitude: float = 0.4,
+            pool: str = "bram", reload_s: float | None = None, amplitude: float = 0.4,
             noise_rms: float = 0.0, seed: int = 1, gap_thresh: int = 4, stall_thresh: int = 4) -> E2E:
     from rast.model.config import load_config
     from rast.model.stream import build_farm_streams
     farm = load_config(config)
     fs = build_farm_streams(farm)
     manifest = fs.manifest()
-    c = contract_for(fs, channels, slots, pool)
+    c = contract_for(fs, channels, slots, pool, copies=1 if reload_s is None else 2)
     writes = manifest_to_register_writes(manifest, c, streams=[s.words for s in fs.streams])
     r = farm.radar
     bw = min(20.0, farm.sample_rate_mhz)          # Table 4.1: 20 MHz linear chirp up
@@ -87,14 +109,21 @@ def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots:
     if len(gate_list) > MAX_CAP:
         raise ValueError(f"at most {MAX_CAP} distinct windmill ranges, not {len(gate_list)}")
     max_total_delay = max(s.delay_samples for s in fs.streams)
+    regs = [(0, a, v) for a, v in writes]
+    if reload_s is not None:
+        at = int(round(reload_s * farm.sample_rate_hz))
+        if not 0 < at < pulse.n_pulses * pulse.samples_per_pri:
+            raise ValueError(f"the reload at {reload_s:g} s is not inside the run of {seconds:g} s")
+        regs += reload_writes(fs, c, at, c.pool_words // 2)
     job = BulkJob(src=train.words(), active=active, pri=pulse.samples_per_pri, pulses=pulse.n_pulses,
                   flush=max(0, max_total_delay + active - pulse.samples_per_pri) + 8,
-                  regs=[(0, a, v) for a, v in writes], gap_thresh=gap_thresh, gap_max=3,
+                  regs=regs, gap_thresh=gap_thresh, gap_max=3,
                   stall_thresh=stall_thresh, seed=seed, cap_offsets=tuple(g[0] for g in gate_list),
                   timeout=10_000)
     sc = Scenario(f"e2e-{Path(config).stem}-{seconds:g}s", c, job, farm.sample_rate_hz)
     return E2E(str(config), farm, fs, sc, pulse, gate_list,
                info=dict(channels=c.channels, slots=c.slots, pool=c.pool, pool_words=c.pool_words,
+                         reload_s=reload_s, reload_writes=len(regs) - len(writes),
                          max_delay=c.max_delay,
                          max_tap=c.max_tap, latency=c.latency, pulses=pulse.n_pulses,
                          samples=job.n_in, samples_per_pri=pulse.samples_per_pri, active=active))

@@ -30,7 +30,7 @@ async def e2e(dut):
     d = run_dir()
     t0 = time.monotonic()
     e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1),
-                pool=p.get("pool", "bram"), noise_rms=p.get("noise_rms", 0.0))
+                pool=p.get("pool", "bram"), reload_s=p.get("reload_s"), noise_rms=p.get("noise_rms", 0.0))
     t_prep = time.monotonic() - t0
     cocotb.log.info("e2e %s: %s", e.scenario.name, e.info)
     beside = ModelBeside(e.scenario, d)          # the model on the other core, during the RTL run
@@ -98,6 +98,6 @@ async def bench(dut):
     """Only the RTL run of the e2e job (no model): the benchmark's cosim figure."""
     p = params()
     e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1),
-                pool=p.get("pool", "bram"))
+                pool=p.get("pool", "bram"), reload_s=p.get("reload_s"))
     summary = await BulkBench(dut).run(e.scenario.job, progress=True)
     save_json(run_dir() / "bench.json", dict(summary, info=e.info))

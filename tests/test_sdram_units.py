@@ -3,6 +3,7 @@ reading, the init sequencer, the pool against a native-port model in the
 Amaranth simulator, and every constructor's parameter checks."""
 
 import random
+from pathlib import Path
 
 import pytest
 from amaranth.hdl import IOPort
@@ -314,3 +315,31 @@ def test_an_sdram_engine_has_no_power_up_streams():
     e = WindFarmReplay(2, pool="sdram", pool_words=4096)
     assert {"native", "pool_error"} <= set(e.signature.members.keys())
     assert "native" not in WindFarmReplay(2, pool_words=4096).signature.members.keys()
+
+
+def test_a_reload_goes_beside_the_playing_streams_a_write_per_sample():
+    """``rast cosim --reload-at``'s writes: the pool holds two copies, the
+    reload's words go into its second half, one register write per sample
+    from the reload's sample on, every word of every stream written again
+    and every channel switched at its period boundary (ENABLE | SWAP)."""
+    from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
+    from rast.sim.e2e import prepare
+    config = Path(__file__).resolve().parent.parent / "examples" / "two_windmills.toml"
+    e = prepare(config, 0.05, pool="sdram", reload_s=0.02)
+    c = e.scenario.contract
+    words = [list(s.words) for s in e.streams.streams]
+    assert c.pool == "sdram" and c.pool_words >= 2 * sum(map(len, words))
+    rmap = register_map(c)
+    first = [r for r in e.scenario.job.regs if r[0] == 0]
+    reload = [r for r in e.scenario.job.regs if r[0] != 0]
+    at = round(0.02 * e.farm.sample_rate_hz)
+    assert [r[0] for r in reload] == list(range(at, at + len(reload)))
+    data = [v for _, a, v in reload if a == rmap.addr("STREAM_DATA")]
+    assert data == [w for ws in words for w in ws]
+    starts = [v for _, a, v in reload if a == rmap.addr("STREAM_ADDR")]
+    assert len(starts) == len(words) and min(starts) >= c.pool_words // 2
+    first_data = [v for _, a, v in first if a == rmap.addr("STREAM_DATA")]
+    assert first_data == data                                   # the same streams, the second time
+    for ch in range(len(words)):
+        assert reload[[i for i, r in enumerate(reload) if r[1] == rmap.addr("CTRL", ch)][-1]][2] == \
+            CTRL_ENABLE | CTRL_SWAP
