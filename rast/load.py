@@ -5,7 +5,8 @@ configuration (channel count, pool words, delays, latency), disables every
 channel, writes every windmill's stream into the stream pool, switches each
 channel to its stream (the block takes a switch only if the words it received
 have the stream's CRC-32), sets gains and delays, reads them back, checks
-that no switch was refused and prints the status (overflow flag, versions).
+that no switch was refused and prints the status (overflow and underflow
+flags, versions).
 """
 
 import os
@@ -133,9 +134,10 @@ def send_writes(bridge, writes, contract, progress=None, *, channels=None):
 
 def read_status(bridge, contract):
     rmap = register_map(contract)
+    status = bridge.read(rmap.addr("STATUS"))           # one read: it clears both flags
     st = {"bridge_id": bridge.version(), "id": bridge.read(rmap.addr("ID")),
           "config": bridge.read(rmap.addr("CONFIG")), "latency": bridge.read(rmap.addr("LATENCY")),
-          "overflow": bridge.read(rmap.addr("STATUS")) & 1, "channels": []}
+          "overflow": status & 1, "underflow": status >> 1 & 1, "channels": []}
     for ch in range(contract.channels):
         ctrl = bridge.read(rmap.addr("CTRL", ch))
         st["channels"].append({"enable": ctrl & CTRL_ENABLE, "swap_pending": ctrl >> 1 & 1,
@@ -158,7 +160,9 @@ def add_arguments(p):
 
 def _print_status(st):
     print(f"bridge {st['bridge_id']:#010x}, ID {st['id']:#010x}, CONFIG {st['config']:#x}, "
-          f"latency {st['latency']} samples, overflow {'SET' if st['overflow'] else 'clear'}")
+          f"latency {st['latency']} samples, overflow {'SET' if st['overflow'] else 'clear'}"
+          + (", underflow SET (a stream word came later than the contract's fetch bound)"
+             if st["underflow"] else ""))
     for k, ch in enumerate(st["channels"]):
         print(f"  channel {k}: {'on ' if ch['enable'] else 'off'} bank {ch['bank']} "
               f"gain {ch['gain']:#07x} delay {ch['delay']}{' (swap pending)' if ch['swap_pending'] else ''}"
