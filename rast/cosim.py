@@ -64,9 +64,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the streams in SDRAM: the engine's SDRAM pool on LiteDRAM's simulation core "
                         "(controller clock = fabric / 4; docs/sdram.md)")
     p.add_argument("--reload-at", type=float, default=None, metavar="SECONDS",
-                   help="reload every stream at this radar time (into the other half of a pool twice "
-                        "the size, a register write per sample, each channel switched at its period "
-                        "boundary)")
+                   help="reload every stream from this radar time on (into the other half of a pool "
+                        "twice the size, 64 register writes at a time, as fast as the pool takes them), "
+                        "each channel switched to its copy at once")
     p.add_argument("--netlist", action="store_true",
                    help="simulate the design as synth_ecp5 leaves it, with the ECP5 cell models, instead "
                         "of the behavioural Verilog (docs/netlist_sim.md)")
@@ -214,7 +214,9 @@ def run(args) -> int:
              f"{', stream pool in SDRAM (LiteDRAM simulation core)' if args.sdram else ''}",
              f"radar time          {args.seconds:g} s ({e.pulse.n_pulses} pulses)",
              *([f"reload              every stream again from {args.reload_at:g} s "
-                f"({e.info['reload_writes']:,} register writes, one per sample)"] if args.reload_at is not None else []),
+                f"({e.info['reload_writes']:,} register writes, the last at "
+                f"{e.info['reload_end_s']:.4f} s), each channel switched at once"]
+               if args.reload_at is not None else []),
              f"RTS samples         {e.info['samples']:,} through the RTL"]
     if rep:
         lines += [f"samples compared    {rep['compared']:,} (per-pulse range-gate samples, as integers)",

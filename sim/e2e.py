@@ -64,20 +64,30 @@ def contract_for(farm_streams, channels: int | None = None, slots: int = 1, pool
     return c
 
 
+#: Register writes of a reload issued together (see :func:`reload_writes`).
+RELOAD_GROUP = 64
+
+
 def reload_writes(farm_streams, c: ReplayContract, at: int, first_base: int) -> list:
     """A reload of every stream while the farm plays: the same words again
-    from pool address ``first_base`` on (where nothing plays), one register
-    write per sample from sample ``at`` (the bulk wrapper holds the input
-    while a write waits, so writes in one sample would stop the radar's time
-    line), each channel switched to its copy at its period boundary (its CRC
-    checked first). Returns ``[(sample, addr, value), ...]``."""
+    from pool address ``first_base`` on (where nothing plays), each channel
+    then switched to its copy at once (disable, SWAP, enable: a stream's
+    period is a rotor's third, seconds, longer than a run; the block checks
+    its CRC first and mutes the channel while it refills from the pool).
+    The writes go RELOAD_GROUP at a time, a group every ``RELOAD_GROUP x
+    pool_word_cycles / slots`` samples from sample ``at`` on: the pool takes
+    them as fast as they come, and the radar's time line runs on between
+    groups (the bulk wrapper holds the input while a write waits, and the
+    model steps once per group). Returns ``[(sample, addr, value), ...]``."""
     rmap = register_map(c)
+    a = rmap.addr
     lengths = [s.plan.length for s in farm_streams.streams]
     w = []
     for ch, (s, base) in enumerate(zip(farm_streams.streams, pool_layout(lengths, c.pool_words - first_base))):
         w += stream_writes(rmap, ch, first_base + base, list(s.words), s.plan.phase_increment)
-        w.append((rmap.addr("CTRL", ch), CTRL_ENABLE | CTRL_SWAP))
-    return [(at + k, addr, value) for k, (addr, value) in enumerate(w)]
+        w += [(a("CTRL", ch), 0), (a("CTRL", ch), CTRL_SWAP), (a("CTRL", ch), CTRL_ENABLE)]
+    spacing = -(-RELOAD_GROUP * c.pool_word_cycles // c.slots)
+    return [(at + k // RELOAD_GROUP * spacing, addr, value) for k, (addr, value) in enumerate(w)]
 
 
 def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots: int = 1,
@@ -115,6 +125,9 @@ def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots:
         if not 0 < at < pulse.n_pulses * pulse.samples_per_pri:
             raise ValueError(f"the reload at {reload_s:g} s is not inside the run of {seconds:g} s")
         regs += reload_writes(fs, c, at, c.pool_words // 2)
+        if regs[-1][0] >= pulse.n_pulses * pulse.samples_per_pri:
+            raise ValueError(f"the reload from {reload_s:g} s ends after the run of {seconds:g} s: "
+                             "reload earlier or run longer")
     job = BulkJob(src=train.words(), active=active, pri=pulse.samples_per_pri, pulses=pulse.n_pulses,
                   flush=max(0, max_total_delay + active - pulse.samples_per_pri) + 8,
                   regs=regs, gap_thresh=gap_thresh, gap_max=3,
@@ -124,6 +137,7 @@ def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots:
     return E2E(str(config), farm, fs, sc, pulse, gate_list,
                info=dict(channels=c.channels, slots=c.slots, pool=c.pool, pool_words=c.pool_words,
                          reload_s=reload_s, reload_writes=len(regs) - len(writes),
+                         reload_end_s=regs[-1][0] / farm.sample_rate_hz if reload_s is not None else None,
                          max_delay=c.max_delay,
                          max_tap=c.max_tap, latency=c.latency, pulses=pulse.n_pulses,
                          samples=job.n_in, samples_per_pri=pulse.samples_per_pri, active=active))

@@ -163,6 +163,11 @@ ${bus_ready_default}
                 end
                 if (rst_count == 4'd1) begin
                     if (n_src != 0) $readmemh("src.hex", src, 0, n_src - 1);
+                    if (n_regs > REG_DEPTH) begin
+                        $display("rast_bulk: %0d register writes, more than the %0d this wrapper holds (reg_aw)",
+                                 n_regs, REG_DEPTH);
+                        $finish;
+                    end
                     if (n_regs != 0) $readmemh("regs.hex", regs, 0, n_regs - 1);
                     fd_out = $fopen("out.txt", "w");
                     src_ptr <= 0; pos <= 0; pulse <= 0; flushed <= 0; rptr <= 0; gap_left <= 0;

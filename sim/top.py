@@ -42,13 +42,15 @@ def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
 
 @lru_cache(maxsize=None)
 def sdram_engine_top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int, slots: int = 1,
-                             interpolation: str = "fir", sample_rate_hz: int = 0, src_aw: int = 22):
+                             interpolation: str = "fir", sample_rate_hz: int = 0, src_aw: int = 22,
+                             reg_aw: int = 20):
     """``({file: text}, toplevel)`` of the engine with its pool in SDRAM
     (:class:`rast.sim.sdram_top.SDRAMEngineTop`, LiteDRAM's simulation core)
     inside ``rast_bulk``; ``pool_error``, ``underflow``, ``init_done`` and ``init_error`` observed.
     ``sample_rate_hz`` (0: not stated, the fabric taken at its fastest) sets the
     fabric clock the contract's SDRAM bounds assume; the simulation's is
-    always 4 x the controller's."""
+    always 4 x the controller's. ``reg_aw`` 20: a million register writes, a
+    stream pool's worth (a 64-turbine farm and its reload)."""
     from rast.model.fixedpoint import ReplayContract
     from rast.model.regmap import register_map
     from rast.sim.sdram_top import ENGINE_TOPLEVEL, sdram_engine_sources
@@ -57,7 +59,7 @@ def sdram_engine_top_sources(channels: int, *, pool_words: int, max_delay: int, 
     sources = sdram_engine_sources(channels, **kwargs)
     aw = register_map(ReplayContract(channels=channels, pool="sdram", **kwargs)).addr_width
     pm = port_map(aw, ENGINE_TOPLEVEL, ("overflow", "pool_error", "underflow", "init_done", "init_error"))
-    return {**sources, "rast_bulk.v": bulk_verilog(pm, src_aw=src_aw)}, "rast_bulk"
+    return {**sources, "rast_bulk.v": bulk_verilog(pm, src_aw=src_aw, reg_aw=reg_aw)}, "rast_bulk"
 
 
 def _source_digest() -> str:

@@ -317,15 +317,16 @@ def test_an_sdram_engine_has_no_power_up_streams():
     assert "native" not in WindFarmReplay(2, pool_words=4096).signature.members.keys()
 
 
-def test_a_reload_goes_beside_the_playing_streams_a_write_per_sample():
+def test_a_reload_goes_beside_the_playing_streams_as_fast_as_the_pool_takes_it():
     """``rast cosim --reload-at``'s writes: the pool holds two copies, the
-    reload's words go into its second half, one register write per sample
-    from the reload's sample on, every word of every stream written again
-    and every channel switched at its period boundary (ENABLE | SWAP)."""
+    reload's words go into its second half, RELOAD_GROUP writes at a time from
+    the reload's sample on, spaced so that the pool keeps up, every word of
+    every stream written again and every channel switched at once (disable,
+    SWAP, enable)."""
     from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
-    from rast.sim.e2e import prepare
+    from rast.sim.e2e import RELOAD_GROUP, prepare
     config = Path(__file__).resolve().parent.parent / "examples" / "two_windmills.toml"
-    e = prepare(config, 0.05, pool="sdram", reload_s=0.02)
+    e = prepare(config, 0.05, slots=10, pool="sdram", reload_s=0.02)
     c = e.scenario.contract
     words = [list(s.words) for s in e.streams.streams]
     assert c.pool == "sdram" and c.pool_words >= 2 * sum(map(len, words))
@@ -333,7 +334,9 @@ def test_a_reload_goes_beside_the_playing_streams_a_write_per_sample():
     first = [r for r in e.scenario.job.regs if r[0] == 0]
     reload = [r for r in e.scenario.job.regs if r[0] != 0]
     at = round(0.02 * e.farm.sample_rate_hz)
-    assert [r[0] for r in reload] == list(range(at, at + len(reload)))
+    spacing = -(-RELOAD_GROUP * c.pool_word_cycles // c.slots)
+    assert spacing * c.slots >= RELOAD_GROUP * 2 * fx.SDRAM_WORD_CLOCKS * 4      # 200 MHz / 50 MHz
+    assert [r[0] for r in reload] == [at + k // RELOAD_GROUP * spacing for k in range(len(reload))]
     data = [v for _, a, v in reload if a == rmap.addr("STREAM_DATA")]
     assert data == [w for ws in words for w in ws]
     starts = [v for _, a, v in reload if a == rmap.addr("STREAM_ADDR")]
@@ -341,5 +344,4 @@ def test_a_reload_goes_beside_the_playing_streams_a_write_per_sample():
     first_data = [v for _, a, v in first if a == rmap.addr("STREAM_DATA")]
     assert first_data == data                                   # the same streams, the second time
     for ch in range(len(words)):
-        assert reload[[i for i, r in enumerate(reload) if r[1] == rmap.addr("CTRL", ch)][-1]][2] == \
-            CTRL_ENABLE | CTRL_SWAP
+        assert [r[2] for r in reload if r[1] == rmap.addr("CTRL", ch)] == [0, CTRL_SWAP, CTRL_ENABLE]
