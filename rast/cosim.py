@@ -243,6 +243,8 @@ def run(args) -> int:
         for d in rep["doppler"]:
             state = ("ok" if d["ok"] else "OFF BY MORE THAN ONE BIN") if d["reached"] else \
                 "its peak is not inside this run"
+            if not rep.get("doppler_checked", True):
+                state = "not checked (the reload restarts every stream from its first word)"
             shared = "" if d["explained_by"] == d["windmill"] else \
                 f", the edge of {d['explained_by']} in the same gate; its own {d['windmill_hz']:.1f} Hz"
             lines.append(f"max Doppler {d['windmill']:<8} RTL {d['measured_hz']:8.1f} Hz, physics "

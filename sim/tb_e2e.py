@@ -75,12 +75,17 @@ async def e2e(dut):
                   gates=[dict(offset=o, range_km=rk, windmills=[e.farm.windmills[i].name for i in m])
                          for o, rk, m in e.gates],
                   doppler=checks, spectrograms_equal=all(spectra_equal) if checks else None,
+                  # a reload switches every channel at once: its stream restarts from its
+                  # first word, so the rotation jumps and the physics' track no longer holds
+                  doppler_checked=p.get("reload_s") is None,
                   **gate_sfdr(e, rtl))
     save_json(d / "e2e.json", report)
     for c in checks:
         cocotb.log.info("%s: max Doppler RTL %.1f Hz, physics %.1f Hz (bin %.1f Hz) %s", c["windmill"],
                         c["measured_hz"], c["physics_hz"], c["bin_hz"],
                         "ok" if c["ok"] else ("FAIL" if c["reached"] else "peak not in this run"))
+    if not report["doppler_checked"]:
+        return
     bad = [c for c in checks if not c["ok"]]
     unreached = [c["windmill"] for c in checks if not c["reached"]]
     if unreached and p.get("require_peaks", True):
