@@ -282,7 +282,6 @@ def sdram_fetch_clocks() -> int:
         t = t_next
 
 
-
 def fir_prototype() -> "np.ndarray":
     """The FIR's prototype at FIR_PHASES x the stream rate, offsets
     ``-(FIR_PHASES*FIR_LEAD - 1) .. FIR_PHASES*FIR_LEAD - 1``: a low-pass
@@ -615,7 +614,9 @@ class ReplayContract:
         ``"4mult"`` or ``"3mult"`` complex multiplier (identical results).
     sample_rate_hz : int
         RTS sample rate the block is built for (register SAMPLE_RATE); 0 when
-        not stated (simulation). It changes no arithmetic.
+        not stated (simulation). It changes no arithmetic of a block-RAM
+        pool; an SDRAM pool's bounds (refill, highest stream rate) are in
+        controller clocks and follow the fabric clock it gives.
     pool : str
         Where the stream pool lives: ``"bram"`` (block RAM, default) or
         ``"sdram"`` (the board's SDRAM; a power of two up to
