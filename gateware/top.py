@@ -8,6 +8,15 @@ which is what ``tests/test_cosim_board_io.py`` simulates with a clock from
 the testbench. :class:`BoardTop` adds the clocking, the pins and the LEDs of
 a board (:mod:`rast.gateware.platforms`).
 
+With ``pool="sdram"`` (in the replay block's keyword arguments) the streams
+live in the board's SDRAM: the replay block's LiteDRAM native port
+(``native``, clock domain ``sdram``) and its sticky ``pool_error`` are
+passed up through :class:`ReplaySystem` and :class:`BoardCore`, and
+:class:`BoardTop` adds the 50 MHz controller clock and a copy shifted 90°
+for the SDRAM clock pin (two more PLL outputs), LiteDRAM's generated core
+(:class:`~rast.gateware.sdram.core.LiteDRAMCore`) on the ``sdram`` pins and
+the SDRAM clock through an ``ODDRX1F`` (docs/sdram.md, docs/bitstream.md).
+
 Sample interface to an ADC/DAC daughterboard (pin map: ``docs/bitstream.md``):
 I and Q share one 16-bit bus per direction, double data rate: I on the
 rising edge, Q on the falling edge of the sample clock. The board drives the
@@ -23,15 +32,43 @@ from amaranth.lib.wiring import In, Out
 
 from ..hdl.iq import IQ
 from ..hdl.replay_top import WindFarmReplay
-from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG
+from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG, SDRAM_CLOCK_HZ
 from ..model.hostproto import DEFAULT_BAUD
 from .bridge import UARTBridge
 from .pll import ECP5PLL, pll_params
 from .uart import divisor as uart_divisor
 
-__all__ = ["ReplaySystem", "SampleIO", "BoardCore", "BoardTop", "DEFAULT_BAUD"]
+__all__ = ["ReplaySystem", "SampleIO", "BoardCore", "BoardTop", "DEFAULT_BAUD", "SDRAM_PHASE_DEG",
+           "sdram_pll_outputs", "board_pll_params"]
 
 DEFAULT_TIMEOUT_S = 0.02
+
+#: Phase of the SDRAM clock pin against the controller's clock (docs/sdram.md:
+#: litex-boards' ULX3S target at 1:1; the first thing to sweep at bring-up).
+SDRAM_PHASE_DEG = 90.0
+
+
+def sdram_pll_outputs(phase_deg=SDRAM_PHASE_DEG):
+    """The PLL's secondary outputs of an SDRAM build: the controller's clock
+    (domain ``sdram``, SDRAM_CLOCK_HZ) and its copy shifted ``phase_deg`` for
+    the SDRAM clock pin (domain ``sdram_ps``)."""
+    f = SDRAM_CLOCK_HZ / 1e6
+    return (("sdram", f, 0.0), ("sdram_ps", f, phase_deg))
+
+
+def board_pll_params(f_in_mhz, clock_mhz, pool="bram"):
+    """The PLL of a board top: the fabric clock, and for ``pool="sdram"`` the
+    outputs of :func:`sdram_pll_outputs`, whose controller clock must be
+    SDRAM_CLOCK_HZ exactly (the contract's SDRAM bounds are in its clocks)."""
+    if pool != "sdram":
+        return pll_params(f_in_mhz, clock_mhz)
+    p = pll_params(f_in_mhz, clock_mhz, outputs=sdram_pll_outputs())
+    for o in p.outputs:
+        if abs(o.f_out_mhz * 1e6 - SDRAM_CLOCK_HZ) > 1e-3:
+            raise ValueError(f"The PLL makes the SDRAM clock {o.domain!r} at {o.f_out_mhz:.4f} MHz beside a "
+                             f"{clock_mhz:g} MHz fabric clock; the SDRAM controller needs exactly "
+                             f"{SDRAM_CLOCK_HZ / 1e6:g} MHz")
+    return p
 
 
 class ReplaySystem(wiring.Component):
@@ -52,6 +89,8 @@ class ReplaySystem(wiring.Component):
     rx : In(1), tx : Out(1)
     i : In(stream.Signature(IQ(16))), o : Out(stream.Signature(IQ(16)))
     overflow : Out(1)
+    native, pool_error :
+        The replay block's, with ``pool="sdram"`` only.
     """
 
     def __init__(self, clk_hz, baud=DEFAULT_BAUD, timeout_s=DEFAULT_TIMEOUT_S, *,
@@ -67,6 +106,7 @@ class ReplaySystem(wiring.Component):
             "i": In(stream.Signature(IQ(INPUT_WIDTH))),
             "o": Out(stream.Signature(IQ(OUTPUT_WIDTH))),
             "overflow": Out(1),
+            **_sdram_members(self.replay),
         })
 
     def elaborate(self, platform):
@@ -78,7 +118,21 @@ class ReplaySystem(wiring.Component):
         wiring.connect(m, replay.o, wiring.flipped(self.o))
         m.d.comb += [bridge.rx.eq(self.rx), self.tx.eq(bridge.tx),
                      self.overflow.eq(replay.overflow)]
+        _connect_sdram(m, replay, self)
         return m
+
+
+def _sdram_members(inner):
+    """``native`` and ``pool_error`` of ``inner`` (a component), where it has them."""
+    sig = inner.signature.members
+    return {name: sig[name] for name in ("native", "pool_error") if name in sig}
+
+
+def _connect_sdram(m, inner, outer):
+    """Pass ``inner``'s ``native`` and ``pool_error`` up to ``outer``'s."""
+    if "native" in outer.signature.members:
+        wiring.connect(m, inner.native, wiring.flipped(outer.native))
+        m.d.comb += outer.pool_error.eq(inner.pool_error)
 
 
 class SampleIO(wiring.Component):
@@ -198,6 +252,8 @@ class BoardCore(wiring.Component):
     Members
     -------
     rx : In(1), tx : Out(1), overflow : Out(1)
+    native, pool_error :
+        The replay block's, with ``pool="sdram"`` only.
     """
 
     def __init__(self, clk_hz, adc_port, dac_port, baud=DEFAULT_BAUD, *, divisor=None, timeout=None,
@@ -206,7 +262,8 @@ class BoardCore(wiring.Component):
         replay_kwargs.setdefault("sample_rate_hz", round(clk_hz / slots))
         self.system = ReplaySystem(clk_hz, baud, divisor=divisor, timeout=timeout, **replay_kwargs)
         self.sample_io = SampleIO(adc_port, dac_port, slots)
-        super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "overflow": Out(1)})
+        super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "overflow": Out(1),
+                          **_sdram_members(self.system)})
 
     def elaborate(self, platform):
         m = Module()
@@ -216,6 +273,7 @@ class BoardCore(wiring.Component):
         wiring.connect(m, sys_.o, sio.dac)
         m.d.comb += [sys_.rx.eq(self.rx), self.tx.eq(sys_.tx), self.overflow.eq(sys_.overflow),
                      sio.slot.eq(sys_.replay.slot)]
+        _connect_sdram(m, sys_, self)
         return m
 
 
@@ -234,22 +292,35 @@ class BoardTop(Elaboratable):
     The platform must provide the board clock as its ``default_clk``, a
     ``uart`` resource, the ``rts_adc``/``rts_dac`` resources of
     :func:`rast.gateware.platforms.rts_resources` and optionally ``led``.
+
+    With ``pool="sdram"`` also an amaranth-boards ``sdram`` resource (the
+    ULX3S's): LiteDRAM's generated core (``generate_core(sim=False)``, its
+    Verilog added to the platform's files) drives the command, address and
+    mask pins from its I/O registers and takes the 16 data pads raw (it
+    places its own bidirectional ``TRELLIS_IO``); the SDRAM clock pin is an
+    ``ODDRX1F`` with D0 = 1, D1 = 0 clocked by the ``sdram_ps`` output
+    (SDRAM_PHASE_DEG behind the controller's clock). A ``wifi_gpio0``
+    resource, where the platform has one, is driven high (the ESP32 then
+    leaves the FPGA alone); LED2 shows LiteDRAM's ``init_done``, LED3
+    ``init_error`` or the replay block's ``pool_error``.
     """
 
     def __init__(self, clock_mhz=100.0, baud=DEFAULT_BAUD, **replay_kwargs):
         self.clock_mhz = float(clock_mhz)
         self.baud = baud
         self.replay_kwargs = replay_kwargs
+        self.pool = replay_kwargs.get("pool", "bram")
         self.system = None
         self.core = None
         self.pll = None
+        self.sdram = None      # the LiteDRAMCore of an SDRAM build, once elaborated
 
     def elaborate(self, platform):
         m = Module()
         clk_res = platform.lookup(platform.default_clk)
         f_in = clk_res.clock.frequency / 1e6
         clk_in = platform.request(platform.default_clk, 0)
-        self.pll = pll_params(f_in, self.clock_mhz)
+        self.pll = board_pll_params(f_in, self.clock_mhz, self.pool)
         m.submodules.pll = pll = ECP5PLL(clk_in.i, self.pll, domain="sync")
         f = self.pll.f_out_mhz * 1e6
 
@@ -270,4 +341,45 @@ class BoardTop(Elaboratable):
         if len(leds) >= 2:
             m.d.comb += [platform.request("led", 0).o.eq(core.overflow),
                          platform.request("led", 1).o.eq(pll.locked)]
+        if self.pool == "sdram":
+            self._elaborate_sdram(m, platform, core, leds)
         return m
+
+    def _elaborate_sdram(self, m, platform, core, leds):
+        from .sdram.core import LiteDRAMCore
+        from .sdram.generate import CORE_NAME, generate_core
+        if not any(r[0] == "sdram" for r in platform.resources):
+            raise ValueError(f"An SDRAM pool needs the platform's sdram resource; "
+                             f"{type(platform).__name__} has none")
+        gen = generate_core(sim=False)
+        platform.add_file(f"{CORE_NAME}.v", gen.verilog)
+        pins = platform.request("sdram", 0, dir="-")
+        self.sdram = dram = LiteDRAMCore(gen, domain="sdram", dq=pins.dq.io)
+        m.submodules.sdram = dram
+        wiring.connect(m, core.native, dram.native)
+
+        # Command, address and mask pins straight from the core's output
+        # registers (OFS1P3BX, packed into the I/O cells): the core's outputs
+        # are pin levels, so an active-low pin is driven through its port
+        # with the inversion taken off.
+        for pin, sig in (("clk_en", dram.sdram_cke), ("cs", dram.sdram_cs_n), ("we", dram.sdram_we_n),
+                         ("ras", dram.sdram_ras_n), ("cas", dram.sdram_cas_n), ("ba", dram.sdram_ba),
+                         ("a", dram.sdram_a), ("dqm", dram.sdram_dm)):
+            port = getattr(pins, pin)
+            if len(port) != len(sig):
+                raise ValueError(f"SDRAM pin {pin} has {len(port)} bits; LiteDRAM's core drives {len(sig)}")
+            if any(port.invert):
+                port = ~port
+            m.submodules[f"sdram_{pin}"] = buf = io.Buffer("o", port)
+            m.d.comb += buf.o.eq(sig)
+
+        # The SDRAM clock: the 90°-shifted copy of the controller's clock out
+        # of an ODDRX1F (D0 = 1, D1 = 0): a fixed I/O cell path from the PLL.
+        m.submodules.sdram_clk = clk = io.DDRBuffer("o", pins.clk, o_domain="sdram_ps")
+        m.d.comb += [clk.o[0].eq(1), clk.o[1].eq(0)]
+
+        if any(r[0] == "wifi_gpio0" for r in platform.resources):
+            m.d.comb += platform.request("wifi_gpio0", 0).o.eq(1)
+        if len(leds) >= 4:
+            m.d.comb += [platform.request("led", 2).o.eq(dram.init_done),
+                         platform.request("led", 3).o.eq(dram.init_error | core.pool_error)]

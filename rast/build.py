@@ -1,6 +1,6 @@
 """build the ECP5 bitstream of the replay block and a JSON timing/resource report
 
-``rast build [--board ulx3s-85f] [--channels N] [--sample-rate-mhz FS] [--clock-mhz FCLK] --out DIR``
+``rast build [--board ulx3s-85f] [--channels N] [--sample-rate-mhz FS] [--clock-mhz FCLK] [--sdram] --out DIR``
 runs Yosys, nextpnr-ecp5 and ecppack (YoWASP builds from PyPI), writes
 ``DIR/rast_top.bit`` and ``DIR/report.json``, and exits 1 when the design
 misses timing at the requested clock or a tool fails. Mistakes in the
@@ -10,6 +10,7 @@ channels than the device's block RAM holds) exit 2 before anything is built.
 
 import json
 import sys
+from types import SimpleNamespace
 
 __all__ = ["add_arguments", "run"]
 
@@ -25,9 +26,18 @@ def add_arguments(p):
     g.add_argument("--speed", default="6", help="plain device speed grade (default 6)")
     g.add_argument("--pinmap", help="JSON pin map for a plain device (default: the ULX3S balls)")
     from rast.gateware.build import BuildConfig
+    from rast.model.fixedpoint import SDRAM_MAX_POOL_WORDS
     dflt = BuildConfig()
     d = p.add_argument_group("design")
-    add_replay_arguments(d, channels=dflt.channels, defaults=dflt, slots=False)
+    # --pool-words: None unless given, so that --sdram can default to the whole SDRAM
+    shown = SimpleNamespace(**{k: getattr(dflt, k) for k in ("max_delay", "max_tap", "interpolation",
+                                                             "cmult_form")},
+                            pool_words=f"{dflt.pool_words}; with --sdram the SDRAM's {SDRAM_MAX_POOL_WORDS}")
+    add_replay_arguments(d, channels=dflt.channels, defaults=shown, slots=False)
+    p.set_defaults(pool_words=None)
+    d.add_argument("--sdram", action="store_true",
+                   help="keep the streams in the board's SDRAM (LiteDRAM, 50 MHz controller clock; "
+                        "ULX3S only) instead of block RAM")
     d.add_argument("--sample-rate-mhz", type=float, default=dflt.sample_rate_mhz,
                    help=f"RTS sample rate, MHz: the converters' clock (default {dflt.sample_rate_mhz:g}, "
                         "the examples' rate)")
@@ -56,7 +66,7 @@ def run(args) -> int:
                       pinmap=args.pinmap, channels=args.channels, sample_rate_mhz=args.sample_rate_mhz,
                       clock_mhz=args.clock_mhz, baud=args.baud, pool_words=args.pool_words, max_delay=args.max_delay,
                       max_tap=args.max_tap, interpolation=args.interpolation,
-                      cmult_form=args.cmult_form, seed=args.seed)
+                      cmult_form=args.cmult_form, seed=args.seed, pool="sdram" if args.sdram else "bram")
     try:
         check(cfg)          # everything that can be checked before a tool runs
     except ValueError as error:
@@ -78,7 +88,7 @@ def run(args) -> int:
     cf = rep["config"]
     print(f"{cf['channels']} channels: {cf['pipelines']} pipelines of {cf['slots']} slots, "
           f"{cf['sample_rate_mhz']:g} MS/s on a {cf['clock_mhz']:g} MHz fabric")
-    print(f"stream pool: {m['pool_words']} words; delay samples: "
+    print(f"stream pool{' in SDRAM' if cf.get('pool') == 'sdram' else ''}: {m['pool_words']} words; delay samples: "
           f"{m['delay_samples']['common']} common, then a window of {m['delay_samples']['tap']}")
     print(f"wrote {args.out}/{rep['bitstream']} and {args.out}/report.json")
     cp = t["critical_path"]

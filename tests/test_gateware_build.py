@@ -110,3 +110,180 @@ def test_engine_bitstream(tmp_path):
     assert rep["memory"]["pool_words"] == 16384
     assert rep["memory"]["delay_samples"] == {"common": 8190, "tap": 2046}
     assert "clock" in proc.stdout and "met" in proc.stdout
+
+
+# ---- the SDRAM build (`rast build --sdram`) ----------------------------------------------------
+
+def test_pll_secondary_outputs_phase():
+    """Secondary outputs from the EHXPLLL formulas, worked out by hand:
+    f_out = 25 MHz x CLKFB_DIV / CLKI_DIV, VCO = f_out x CLKOP_DIV; an output
+    of divider D is VCO / D and at 0° with CPHASE = D - 1 (CLKOP's setting),
+    each CPHASE step a VCO period (360° / D), each FPHASE step an eighth."""
+    from rast.gateware.pll import PLLOutput
+    # 100 MHz fabric: VCO 600 MHz (CLKOP_DIV 6); 50 MHz is 600 / 12; 90° of
+    # 20 ns is 5 ns = 3 VCO periods of 1.667 ns: CPHASE 11 + 3, FPHASE 0.
+    p = pll_params(25, 100, outputs=[("sdram", 50), ("sdram_ps", 50, 90)])
+    assert (p.refclk_div, p.feedback_div, p.output_div, p.f_vco_mhz) == (1, 4, 6, 600)
+    assert p.outputs == (PLLOutput("CLKOS", "sdram", 50.0, 12, 11, 0),
+                         PLLOutput("CLKOS2", "sdram_ps", 50.0, 12, 14, 0))
+    assert p.outputs[1].phase_deg == 90.0
+    # 200 MHz fabric: VCO 600 (CLKOP_DIV 3), the same SDRAM outputs.
+    p = pll_params(25, 200, outputs=[("sdram", 50), ("sdram_ps", 50, 90)])
+    assert (p.output_div, p.f_vco_mhz) == (3, 600)
+    assert [(o.div, o.cphase, o.fphase) for o in p.outputs] == [(12, 11, 0), (12, 14, 0)]
+    # 22.5° at 50 MHz: 0.75 VCO period = 6 eighths; 180°: 6 periods.
+    p = pll_params(25, 100, outputs=[("a", 50, 22.5), ("b", 50, 180)])
+    assert [(o.cphase, o.fphase) for o in p.outputs] == [(11, 6), (17, 0)]
+    # 75 MHz beside 100 MHz: the VCO must be a common multiple, 600 (600 / 8).
+    p = pll_params(25, 100, outputs=[("x", 75)])
+    assert (p.f_vco_mhz, p.outputs[0].div, p.outputs[0].f_out_mhz) == (600, 8, 75.0)
+    # no outputs: the single-output PLL as before
+    assert pll_params(25, 100).outputs == ()
+
+
+def test_pll_output_errors():
+    from rast.gateware.pll import ECP5PLL
+    with pytest.raises(ValueError, match=r"^The ECP5 PLL has 3 secondary outputs \(CLKOS, CLKOS2, CLKOS3\); "
+                                         r"4 were asked$"):
+        pll_params(25, 100, outputs=[("a", 50), ("b", 50), ("c", 50), ("d", 50)])
+    with pytest.raises(ValueError, match=r"^PLL output domain 'a' is given twice$"):
+        pll_params(25, 100, outputs=[("a", 50), ("a", 25)])
+    with pytest.raises(ValueError, match=r"^PLL output 'a': phase must be a number of degrees in "
+                                         r"\[0, 360\), not 360$"):
+        pll_params(25, 100, outputs=[("a", 50, 360)])
+    with pytest.raises(ValueError, match=r"^PLL output 'a': frequency must be in \[3.125, 400.0\] MHz, not 500$"):
+        pll_params(25, 100, outputs=[("a", 500)])
+    # 190 MHz needs a VCO of 570 or 760 MHz: no whole divider gives 50 MHz
+    with pytest.raises(ValueError, match=r"^The ECP5 PLL cannot make 190 MHz and sdram: 50 MHz from 25 MHz"):
+        pll_params(25, 190, outputs=[("sdram", 50)])
+    p = pll_params(25, 100, outputs=[("sync", 50)])
+    with pytest.raises(ValueError, match=r"^PLL domains must differ: sync, sync$"):
+        ECP5PLL(None, p, domain="sync")
+
+
+def test_build_config_pool():
+    from rast.gateware.build import check
+    from rast.model.fixedpoint import SDRAM_MAX_POOL_WORDS
+    assert BuildConfig().pool == "bram" and BuildConfig().pool_words == 81920
+    assert BuildConfig(pool="sdram").pool_words == SDRAM_MAX_POOL_WORDS == 1 << 23
+    assert BuildConfig(pool="sdram", pool_words=1 << 20).pool_words == 1 << 20
+    assert BuildConfig(pool="sdram").replay_kwargs()["pool"] == "sdram"
+    with pytest.raises(ValueError, match=r"^Build pool must be one of bram, sdram, not 'dram'$"):
+        BuildConfig(pool="dram")
+    with pytest.raises(ValueError, match=r"^A stream pool in SDRAM needs a board with SDRAM \(a ULX3S\); the "
+                                         r"plain device LFE5U-85F has none$"):
+        check(BuildConfig(board=None, device="LFE5U-85F", package="BG381", speed="6", pool="sdram"))
+    with pytest.raises(ValueError, match=r"^Pool words of an SDRAM pool must be a power of two"):
+        check(BuildConfig(pool="sdram", pool_words=81920))
+    with pytest.raises(ValueError, match=r"^The ECP5 PLL cannot make 190 MHz and sdram: 50 MHz"):
+        check(BuildConfig(pool="sdram", channels=10, sample_rate_mhz=19, clock_mhz=190))
+    # the pool's block RAMs are not counted for an SDRAM pool: 64 channels with
+    # the whole SDRAM pass the device check
+    contract, _ = check(BuildConfig(pool="sdram"))
+    assert contract.pool == "sdram" and contract.pool_words == 1 << 23
+
+
+def _rtlil_module(il, name):
+    start = il.index(f"module {name}\n")
+    return il[start:il.index("\nend\n", start)]
+
+
+def test_sdram_board_top_elaborates(tmp_path):
+    """The SDRAM board top: LiteDRAM's core on the ULX3S's sdram pins (data
+    pads raw), the SDRAM clock at F19 from an ODDRX1F with D0 = 1, D1 = 0 on
+    the 90° PLL output, the ESP32's GPIO0 high, the core's Verilog beside the
+    design, both clocks and the SDRAM's words in the report."""
+    import re
+    cfg = BuildConfig(channels=10, sample_rate_mhz=10, clock_mhz=100, pool="sdram")
+    rep = build(cfg, tmp_path, quiet=True, run_tools=False)
+    il = (tmp_path / "rast_top.il").read_text()
+    lpf = (tmp_path / "rast_top.lpf").read_text()
+    assert "module litedram_core" in (tmp_path / "litedram_core.v").read_text()
+    assert "read_verilog  litedram_core.v" in (tmp_path / "rast_top.ys").read_text()
+
+    # every SDRAM pin placed: clk, cke, cs, we, ras, cas, ba (2), a (13), dq (16), dqm (2)
+    assert len(re.findall(r'LOCATE COMP "sdram_0__\w+__io(\[\d+\])?" SITE', lpf)) == 39
+    assert 'LOCATE COMP "sdram_0__clk__io" SITE "F19"' in lpf
+    assert 'LOCATE COMP "sdram_0__dq__io[0]" SITE "J16"' in lpf
+    assert 'LOCATE COMP "wifi_gpio0_0__io" SITE "L2"' in lpf
+
+    # the core: one instance, its dq on the raw pads (no buffer of the platform's between)
+    core = re.findall(r"cell \\litedram_core \S+\n(.*?)\n  end", il, re.S)
+    assert len(core) == 1
+    assert re.search(r"connect \\sdram_dq \\sdram_0__dq__io \[15:0\]", core[0])
+    assert not re.search(r"cell \\(BB|IB|OBZ) .*\n(.*\n){0,3}.*sdram_0__dq__io", il)
+
+    # the PLL: CLKOP 100 MHz (VCO 600), CLKOS 50 MHz, CLKOS2 50 MHz at +90° (CPHASE 11 + 3)
+    pll = re.search(r"cell \\EHXPLLL \S+\n(.*?)\n  end", il, re.S).group(1)
+    for k, v in (("CLKOP_DIV", 6), ("CLKOS_DIV", 12), ("CLKOS_CPHASE", 11), ("CLKOS2_DIV", 12),
+                 ("CLKOS2_CPHASE", 14), ("CLKOS2_FPHASE", 0)):
+        assert re.search(rf"parameter \\{k} {v}\n", pll), k
+    ps_clk = re.search(r"connect \\CLKOS2 (\\\S+)", pll).group(1)
+
+    # the SDRAM clock pin: the one module with an ODDRX1F driving sdram_0__clk__io,
+    # clocked by CLKOS2, its two data bits 1 (first half) and 0 from the top
+    mods = [m for m in re.findall(r"\nmodule (\S+)\n", il)
+            if "cell \\ODDRX1F" in _rtlil_module(il, m)
+            and "sdram_0__clk__io" in _rtlil_module(il, m)]
+    assert len(mods) == 1
+    body = _rtlil_module(il, mods[0])
+    assert body.count("cell \\ODDRX1F") == 1
+    assert re.search(rf"connect \\SCLK {re.escape(ps_clk)} \[0\]", body)
+    inst = re.search(rf"cell {re.escape(mods[0])} \S+\n(.*?)\n  end", il, re.S).group(1)
+    data = re.search(r"connect \\o (\\\S+) \[1:0\]", inst).group(1)
+    assert f"assign {data} [0] 1'1" in il and f"assign {data} [1] 1'0" in il
+
+    assert rep["config"]["pool"] == "sdram" and rep["build"]["pool"] == "sdram"
+    assert rep["memory"]["pool_words"] == rep["memory"]["sdram_words"] == 1 << 23
+    assert [(o["domain"], o["f_out_mhz"], o["phase_deg"]) for o in rep["pll"]["outputs"]] == \
+        [("sdram", 50.0, 0.0), ("sdram_ps", 50.0, 90.0)]
+
+
+def test_bram_board_top_unchanged(tmp_path):
+    """A block-RAM build has no SDRAM pins, one PLL output and no LiteDRAM."""
+    rep = build(BuildConfig(channels=2, pool_words=256, max_delay=254, max_tap=62), tmp_path,
+                quiet=True, run_tools=False)
+    il = (tmp_path / "rast_top.il").read_text()
+    lpf = (tmp_path / "rast_top.lpf").read_text()
+    assert "sdram_0__" not in lpf and "wifi_gpio0" not in lpf and "litedram_core" not in il
+    assert "CLKOS_ENABLE" not in il and "outputs" not in rep["pll"]
+    assert not (tmp_path / "litedram_core.v").exists()
+
+
+def test_clock_domains_from_nextpnr_report():
+    """The domains' clocks found in nextpnr's report (clocks named after nets):
+    by constraint, then by the net's name, then by the cells on the worst
+    path (LiteDRAM's core is the submodule ``sdram``)."""
+    from rast.gateware.build import clock_domains
+
+    def path(clk, cell):
+        return {"from": f"posedge {clk}", "to": f"posedge {clk}",
+                "path": [{"type": "clk-to-q", "delay": 1.0, "from": {"cell": cell}, "to": {"cell": cell}}]}
+    # as nextpnr named them in the SDRAM build (seed 1)
+    clocks = {"$glbnet$pll.sdram_ps_clk": {"achieved_mhz": 630.9, "constraint_mhz": 50.0},
+              "$glbnet$core.sdram_clk": {"achieved_mhz": 74.8, "constraint_mhz": 50.0},
+              "$glbnet$core.clk": {"achieved_mhz": 92.9, "constraint_mhz": 100.0}}
+    assert clock_domains(clocks, {}, 100.0, 50.0) == {
+        "sync": "$glbnet$core.clk", "sdram": "$glbnet$core.sdram_clk", "sdram_ps": "$glbnet$pll.sdram_ps_clk"}
+    assert clock_domains(clocks, {}, 100.0) == {"sync": "$glbnet$core.clk"}
+    # both at 50 MHz and named after other nets: the worst paths decide
+    clocks = {"$glbnet$a": {"achieved_mhz": 80.0, "constraint_mhz": 50.0},
+              "$glbnet$b": {"achieved_mhz": 90.0, "constraint_mhz": 50.0}}
+    rep = {"critical_paths": [path("$glbnet$a", "sdram.litedram.x"), path("$glbnet$b", "core.system.y")]}
+    assert clock_domains(clocks, rep, 50.0, 50.0) == {"sync": "$glbnet$b", "sdram": "$glbnet$a"}
+
+
+def test_cli_sdram_option(tmp_path, capsys):
+    """`rast build --sdram`: the pool in SDRAM, its words the whole SDRAM unless
+    --pool-words is given; refused for a plain device before anything is built."""
+    from rast.cli import build_parser, main
+    args = build_parser().parse_args(["build", "--sdram", "--out", str(tmp_path / "a")])
+    assert args.sdram is True and args.pool_words is None
+    args = build_parser().parse_args(["build", "--out", str(tmp_path / "a")])
+    assert args.sdram is False and BuildConfig(pool_words=args.pool_words).pool_words == 81920
+    out = tmp_path / "b"
+    assert main(["build", "--sdram", "--device", "LFE5U-85F", "--out", str(out)]) == 2
+    assert "needs a board with SDRAM" in capsys.readouterr().err
+    assert main(["build", "--sdram", "--pool-words", "81920", "--out", str(out)]) == 2
+    assert "power of two" in capsys.readouterr().err
+    assert not out.exists()
