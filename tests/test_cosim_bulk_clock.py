@@ -23,7 +23,7 @@ from rast.sim.top import top_sources
 def test_burst_clock_and_clock_per_cycle_agree(slots):
     sources, top = top_sources(4, slots=slots, **TEST_CONTRACT)
     params = dict(kind="random", channels=4, seed=61 + slots, gap_thresh=48, stall_thresh=48,
-                  interpolation="fir", pulses=40, contract=dict(TEST_CONTRACT, slots=slots))
+                  interpolation="fir", pulses=20, contract=dict(TEST_CONTRACT, slots=slots))
     summaries = {}
     for clock in ("burst", "clk"):
         b = runner.build(sources, top, simulator="verilator", waves=False, bulk=True, bulk_clock=clock,
