@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, asdict
 from pathlib import Path
 
 from ..model.fixedpoint import ReplayContract, POOL_BACKENDS, SDRAM_CLOCK_HZ, SDRAM_MAX_POOL_WORDS
-from .capacity import DEVICE_BLOCKS, pool_blocks, total_blocks, total_dsps
+from .capacity import DEVICE_BLOCKS, total_blocks, total_dsps
 from .platforms import make_platform
 from .top import BoardTop, DEFAULT_BAUD, board_pll_params
 from .uart import divisor as uart_divisor
@@ -258,8 +258,7 @@ def check(cfg: BuildConfig):
     blocks = DEVICE_BLOCKS.get("LFE5U-" + platform.device.rsplit("-", 1)[-1])
     if blocks is not None:
         c = contract
-        # an SDRAM pool holds no stream word in block RAM
-        need = total_blocks(c) - (pool_blocks(c) if c.pool == "sdram" else 0)
+        need = total_blocks(c)
         if need > blocks[0]:
             raise ValueError(f"{c.channels} channels ({c.pipelines} pipelines of {c.slots} slots) with a "
                              f"{c.pool_words}-word stream pool and delays up to {c.max_delay} + "

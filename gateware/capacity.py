@@ -32,7 +32,9 @@ def ram_blocks(width, depth):
 
 
 def pool_blocks(contract: ReplayContract) -> int:
-    """DP16KD of the stream pool."""
+    """DP16KD of the stream pool (none when it is in SDRAM)."""
+    if contract.pool == "sdram":
+        return 0
     bank = min(contract.pool_words, POOL_BANK_WORDS)
     return contract.pool_words // bank * ram_blocks(32, bank)
 
