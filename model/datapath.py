@@ -328,6 +328,46 @@ class ReplayModel:
             self.overflow = 1
         return y[0], y[1]
 
+    #: Registers whose writes change no output until a bank switch: the stream
+    #: write path (the pool is read into a channel only when it switches).
+    _UNTIMED = frozenset({"STREAM_ADDR", "STREAM_DATA"})
+    #: Samples per :meth:`run` call of :meth:`run_with_writes`: the model looks
+    #: back a bounded number of samples, so pieces keep memory small.
+    CHUNK = 1 << 20
+
+    def run_with_writes(self, xi, xq, writes):
+        """Push input samples with register writes ``(step, addr, value)``
+        (steps ascending), each taking effect from input sample ``step`` on;
+        return the output samples (yi, yq) for all of ``xi``.
+
+        Equal to calling :meth:`run` up to each write's step and then
+        :meth:`write`, but a stream word written while no channel has a switch
+        pending is applied without first running up to its step: no channel
+        can read the pool before the next CTRL write, which does run up to its
+        step. A load of many words then costs a few runs, not one per word.
+        """
+        xi = np.asarray(xi, dtype=np.int64)
+        xq = np.asarray(xq, dtype=np.int64)
+        ys_i, ys_q = [], []
+        done = 0
+
+        def run_to(stop):
+            for k in range(done, stop, self.CHUNK):
+                a, b = self.run(xi[k:min(stop, k + self.CHUNK)], xq[k:min(stop, k + self.CHUNK)])
+                ys_i.append(a)
+                ys_q.append(b)
+
+        for step, addr, value in writes:
+            if step > done:
+                r = self.rmap.by_addr(addr)
+                if r is not None and (r.name not in self._UNTIMED or any(self.pending)):
+                    run_to(min(step, len(xi)))
+                    done = min(step, len(xi))
+            self.write(addr, value)
+        run_to(len(xi))
+        empty = np.zeros(0, dtype=np.int64)
+        return (np.concatenate(ys_i) if ys_i else empty), (np.concatenate(ys_q) if ys_q else empty)
+
     def _outputs(self, n0, n1):
         """Outputs of absolute steps [n0, n1), computed over a window that
         starts at least ``_lookback`` steps earlier (or at step 0, exactly):

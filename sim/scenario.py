@@ -49,33 +49,13 @@ def job_inputs(job: BulkJob) -> tuple[np.ndarray, np.ndarray]:
     return fx.unpack_iq(words, fx.INPUT_WIDTH)
 
 
-MODEL_CHUNK = 1 << 20
-
-
 def model_outputs(sc: Scenario, xi=None, xq=None):
     """``(yi, yq, overflow)`` of the bit-exact model for the scenario."""
     if xi is None:
         xi, xq = job_inputs(sc.job)
     m = ReplayModel(sc.contract)
-    ys_i, ys_q = [], []
-
-    def run(start, stop):
-        # The model looks back a bounded number of samples, so pieces of a
-        # million samples keep memory small on second-long runs.
-        for k in range(start, stop, MODEL_CHUNK):
-            a, b = m.run(xi[k:min(stop, k + MODEL_CHUNK)], xq[k:min(stop, k + MODEL_CHUNK)])
-            ys_i.append(a)
-            ys_q.append(b)
-
-    n = 0
-    for at, addr, data in sc.job.regs:
-        if at > n:
-            run(n, at)
-            n = at
-        m.write(addr, data)
-    if n < len(xi):
-        run(n, len(xi))
-    return np.concatenate(ys_i), np.concatenate(ys_q), int(m.overflow)
+    yi, yq = m.run_with_writes(xi, xq, sc.job.regs)
+    return yi, yq, int(m.overflow)
 
 
 class ModelBeside:

@@ -27,7 +27,7 @@ def scenario_from_params(p: dict) -> Scenario:
                                     pulses=p.get("pulses", 80), gap_thresh=p["gap_thresh"],
                                     stall_thresh=p["stall_thresh"], contract=p.get("contract"))
     if p["kind"] == "farm":
-        return farm_scenario(p["channels"], p["seed"], gap_thresh=p["gap_thresh"],
+        return farm_scenario(p["channels"], p["seed"], pulses=p.get("pulses", 30), gap_thresh=p["gap_thresh"],
                              stall_thresh=p["stall_thresh"], contract=p.get("contract"))
     return random_scenario(p["channels"], p["seed"], kind=p["kind"], interpolation=p.get("interpolation", "fir"),
                            gap_thresh=p["gap_thresh"], stall_thresh=p["stall_thresh"],

@@ -95,14 +95,7 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     model = ReplayModel(contract)
     n_out = rtl.sums["outs"]
     x_i, x_q = np.resize(xi, n_out), np.resize(xq, n_out)
-    ys, done = [], 0
-    for step, addr, data in rtl.writes:
-        if step > done:
-            ys.append(np.stack(model.run(x_i[done:step], x_q[done:step])))
-            done = step
-        model.write(addr, data)
-    ys.append(np.stack(model.run(x_i[done:], x_q[done:])))
-    y = np.concatenate(ys, axis=1)
+    y = np.stack(model.run_with_writes(x_i, x_q, rtl.writes))
     assert [(a, d) for _, a, d in rtl.writes] == board.applied, "the bus saw other writes than rast load sent"
     for lane, k in (("i", 0), ("q", 1)):
         assert (rtl.sums[f"s1_{lane}"], rtl.sums[f"s2_{lane}"]) == weighted_sums(y[k]), \

@@ -142,15 +142,7 @@ def test_load_manifest_end_to_end(tmp_path, streams):
 
     # The model, given the same writes at the same steps.
     model = ReplayModel(c)
-    yi, yq, done = [], [], 0
-    for step, addr, data in state["writes"]:
-        if step > done:
-            a, b = model.run(xi[done:step], xq[done:step])
-            yi.append(a); yq.append(b); done = step
-        model.write(addr, data)
-    a, b = model.run(xi[done:], xq[done:])
-    yi.append(a); yq.append(b)
-    want = np.stack([np.concatenate(yi), np.concatenate(yq)], axis=1)
+    want = np.stack(model.run_with_writes(xi, xq, state["writes"]), axis=1)
     got = np.array(state["y"][:T], dtype=np.int64)
     assert len(got) == T
     bad = np.nonzero((got != want).any(axis=1))[0]

@@ -35,9 +35,9 @@ def _run(channels, kind, seed, *, slots, pulses, gaps=(48, 48), model_pool="sdra
                               stall_thresh=gaps[1], pulses=pulses, interpolation=interpolation, contract=dict(contract, pool=model_pool)))
 
 
-@pytest.mark.parametrize("kind, seed", [("random", 71), ("farm", 72)])
-def test_engine_on_sdram_time_multiplexed(kind, seed):
-    _run(5, kind, seed, slots=4, pulses=60)
+@pytest.mark.parametrize("kind, seed, pulses", [("random", 71, 60), ("farm", 72, 30)])
+def test_engine_on_sdram_time_multiplexed(kind, seed, pulses):
+    _run(5, kind, seed, slots=4, pulses=pulses)
 
 
 def test_a_model_that_expects_block_ram_latency_sees_the_sdram_one():
