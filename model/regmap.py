@@ -124,7 +124,7 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
     inits += [ChannelInit()] * (c.channels - len(inits))
     interp_code = INTERPOLATIONS.index(c.interpolation)
     config = (c.channels | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
-              | (c.slots << 16))
+              | (int(c.pool == "sdram") << 11) | (c.slots << 16))
     regs = [
         Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
                  "identification"),
@@ -133,6 +133,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                         "stream interpolation: 0 hold, 1 linear, 2 FIR"),
                                   Field("cmult3", 10, 1, "ro", int(c.cmult_form == "3mult"),
                                         "1: 3-multiplier complex product"),
+                                  Field("sdram", 11, 1, "ro", int(c.pool == "sdram"),
+                                        "1: the stream pool is in SDRAM (POOL_WORDS of it)"),
                                   Field("slots", 16, 7, "ro", c.slots,
                                         "M: fabric clocks per sample, channels per pipeline")),
                  f"elaboration parameters (reads {config:#x} here)"),

@@ -45,6 +45,7 @@ def read_contract(bridge: HostBridge) -> ReplayContract:
                        max_tap=bridge.read(a("MAX_TAP")),
                        interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],
                        cmult_form="3mult" if cfg >> 10 & 1 else "4mult",
+                       pool="sdram" if cfg >> 11 & 1 else "bram",
                        sample_rate_hz=bridge.read(a("SAMPLE_RATE")))
     lat = bridge.read(a("LATENCY"))
     if lat != c.latency:

@@ -6,10 +6,13 @@ initialised by the CPU-less sequencer.
   (``sdram_clk``/``sdram_rst``).
 * :class:`SDRAMEngineTop`: the replay engine with its pool in SDRAM
   (``WindFarmReplay(pool="sdram")``), the ports of the block-RAM engine's
-  top so that the bulk wrapper (``rast.sim.bulk``) drives it unchanged. One
-  clock port: the controller's clock is the fabric clock divided by 4 (a
-  flip-flop), 50 MHz beside 200 MHz as on the board, two domains crossing
-  through the pool's ``AsyncFIFO``s.
+  top so that the bulk wrapper (``rast.sim.bulk``) drives it unchanged.
+* :class:`SDRAMSystemTop`: the board's replay system (UART bridge + engine)
+  on the same core, for the load chain through the UART.
+
+Both are :class:`OnSimSDRAM`: one clock port, the controller's clock the
+fabric clock divided by 4 (a flip-flop), 50 MHz beside 200 MHz as on the
+board, two domains crossing through the pool's ``AsyncFIFO``s.
 """
 
 from amaranth.hdl import ClockDomain, ClockSignal, Module, ResetSignal, Signal
@@ -21,7 +24,8 @@ from rast.gateware.sdram.generate import CORE_NAME, generate_core
 from rast.hdl.sdram_pool import SDRAMStreamPool, WORD_WIDTH
 
 __all__ = ["SDRAMPoolTop", "sdram_top_sources", "TOPLEVEL", "LITEDRAM_LINT_WAIVERS",
-           "SDRAMEngineTop", "ENGINE_TOPLEVEL", "SDRAM_CLOCK_DIVIDER", "sdram_engine_sources"]
+           "OnSimSDRAM", "SDRAMEngineTop", "SDRAMSystemTop", "ENGINE_TOPLEVEL", "SDRAM_CLOCK_DIVIDER",
+           "sdram_engine_sources"]
 
 TOPLEVEL = "sdram_top"
 
@@ -85,27 +89,38 @@ ENGINE_TOPLEVEL = "sdram_engine_top"
 SDRAM_CLOCK_DIVIDER = 4
 
 
-class SDRAMEngineTop(wiring.Component):
-    """``WindFarmReplay(pool="sdram", **kwargs)`` on LiteDRAM's simulation core.
+class OnSimSDRAM(wiring.Component):
+    """``inner`` (a component with an SDRAM pool's ``native`` port) on
+    LiteDRAM's simulation core.
 
-    Ports: the engine's (``i``, ``o``, ``bus``, ``overflow``, ``slot``,
-    ``pool_error``, ``underflow``) and the core's ``init_done``, ``init_error``. The
-    controller's domain ``sdram`` runs at the fabric clock / 4, its reset held
-    for 16 fabric clocks after the fabric's.
+    Ports: ``inner``'s members named in ``names``, passed through, and the
+    core's ``init_done``, ``init_error``. The controller's domain ``sdram``
+    runs at the fabric clock / 4, its reset held for 16 fabric clocks after
+    the fabric's.
     """
 
-    def __init__(self, core, channels, *, cdelay_clocks=1, **kwargs):
-        from rast.hdl.replay_top import WindFarmReplay
-        self._engine = WindFarmReplay(channels, pool="sdram", **kwargs)
+    def __init__(self, core, inner, names, *, cdelay_clocks=1):
+        self._generated = core
+        self._inner = inner
+        self._names = tuple(names)
         self._core = LiteDRAMCore(core, domain="sdram", cdelay_clocks=cdelay_clocks)
-        sig = self._engine.signature.members
-        super().__init__({name: sig[name] for name in ("i", "o", "bus", "overflow", "slot", "pool_error",
-                                                                 "underflow")}
+        sig = inner.signature.members
+        super().__init__({name: sig[name] for name in self._names}
                          | {"init_done": Out(1), "init_error": Out(1)})
 
     @property
-    def engine(self):
-        return self._engine
+    def inner(self):
+        return self._inner
+
+    def verilog_sources(self, name):
+        """``{file: Verilog}``: this top as module ``name`` and LiteDRAM's core."""
+        from amaranth.back import verilog
+        # Amaranth's AsyncFIFO carries the write domain's reset into the read
+        # domain through a ResetSynchronizer (asserted asynchronously, by design),
+        # while the testbenches drive that reset from a flip-flop: Verilator's
+        # SYNCASYNCNET names exactly this, and is waived in this file only.
+        text = "/* verilator lint_off SYNCASYNCNET */\n" + verilog.convert(self, name=name, emit_src=False)
+        return {f"{name}.v": text, f"{CORE_NAME}.v": litedram_for_verilator(self._generated.verilog)}
 
     def elaborate(self, platform):
         m = Module()
@@ -117,28 +132,62 @@ class SDRAMEngineTop(wiring.Component):
             m.d.sync += hold.eq(hold - 1)
         assert SDRAM_CLOCK_DIVIDER == 4
         m.d.comb += [ClockSignal("sdram").eq(div[1]), ResetSignal("sdram").eq(hold != 0)]
-        m.submodules.engine = engine = self._engine
+        m.submodules.inner = inner = self._inner
         m.submodules.sdram = core = self._core
-        wiring.connect(m, engine.native, core.native)
-        for name in ("i", "bus"):
-            wiring.connect(m, wiring.flipped(getattr(self, name)), getattr(engine, name))
-        wiring.connect(m, engine.o, wiring.flipped(self.o))
-        m.d.comb += [self.overflow.eq(engine.overflow), self.slot.eq(engine.slot),
-                     self.pool_error.eq(engine.pool_error), self.underflow.eq(engine.underflow),
-                     self.init_done.eq(core.init_done), self.init_error.eq(core.init_error)]
+        wiring.connect(m, inner.native, core.native)
+        for name in self._names:
+            member = self.signature.members[name]
+            outer, port = getattr(self, name), getattr(inner, name)
+            if member.is_port:
+                m.d.comb += (port.eq(outer) if member.flow == In else outer.eq(port))
+            elif member.flow == In:
+                wiring.connect(m, wiring.flipped(outer), port)
+            else:
+                wiring.connect(m, port, wiring.flipped(outer))
+        m.d.comb += [self.init_done.eq(core.init_done), self.init_error.eq(core.init_error)]
         return m
+
+
+class SDRAMEngineTop(OnSimSDRAM):
+    """``WindFarmReplay(pool="sdram", **kwargs)`` on LiteDRAM's simulation
+    core; ports: the engine's ``i``, ``o``, ``bus``, ``overflow``, ``slot``,
+    ``pool_error``, ``underflow`` (those of the block-RAM engine's top, so
+    that the bulk wrapper drives it unchanged) and ``init_done``, ``init_error``."""
+
+    def __init__(self, core, channels, *, cdelay_clocks=1, **kwargs):
+        from rast.hdl.replay_top import WindFarmReplay
+        super().__init__(core, WindFarmReplay(channels, pool="sdram", **kwargs),
+                         ("i", "o", "bus", "overflow", "slot", "pool_error", "underflow"),
+                         cdelay_clocks=cdelay_clocks)
+
+    @property
+    def engine(self):
+        return self.inner
+
+
+class SDRAMSystemTop(OnSimSDRAM):
+    """The board's replay system (UART bridge + engine,
+    :class:`rast.gateware.top.ReplaySystem`, ``pool="sdram"``) on LiteDRAM's
+    simulation core, for the load chain through the UART (``rast.sim.uart_chain``):
+    ports ``rx``, ``tx``, ``i``, ``o``, ``overflow``, ``pool_error``,
+    ``init_done``, ``init_error``."""
+
+    def __init__(self, core, clk_hz, *, cdelay_clocks=1, **system_kwargs):
+        from rast.gateware.top import ReplaySystem
+        super().__init__(core, ReplaySystem(clk_hz, pool="sdram", **system_kwargs),
+                         ("rx", "tx", "i", "o", "overflow", "pool_error"), cdelay_clocks=cdelay_clocks)
+
+    @property
+    def system(self):
+        return self.inner
+
+    @property
+    def divisor(self):
+        return self.inner.divisor
 
 
 def sdram_engine_sources(channels, *, cdelay_clocks=1, **kwargs):
     """``{file: Verilog}`` of :class:`SDRAMEngineTop` (module ``sdram_engine_top``)
     and LiteDRAM's simulation core; ``kwargs`` as for ``WindFarmReplay``."""
-    from amaranth.back import verilog
-    core = generate_core(sim=True)
-    top = SDRAMEngineTop(core, channels, cdelay_clocks=cdelay_clocks, **kwargs)
-    # Amaranth's AsyncFIFO carries the write domain's reset into the read
-    # domain through a ResetSynchronizer (asserted asynchronously, by design),
-    # while the bulk wrapper drives that reset from a flip-flop: Verilator's
-    # SYNCASYNCNET names exactly this, and is waived in this file only.
-    text = "/* verilator lint_off SYNCASYNCNET */\n" + verilog.convert(top, name=ENGINE_TOPLEVEL,
-                                                                        emit_src=False)
-    return {f"{ENGINE_TOPLEVEL}.v": text, f"{CORE_NAME}.v": litedram_for_verilator(core.verilog)}
+    top = SDRAMEngineTop(generate_core(sim=True), channels, cdelay_clocks=cdelay_clocks, **kwargs)
+    return top.verilog_sources(ENGINE_TOPLEVEL)

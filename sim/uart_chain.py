@@ -28,7 +28,8 @@ from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import unpack_iq
 from rast.model.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
 
-__all__ = ["ModelBoard", "ChainResult", "run_chain", "host_clocks", "weighted_sums"]
+__all__ = ["ModelBoard", "ChainResult", "run_chain", "host_clocks", "weighted_sums", "burst_train",
+           "check_chain"]
 
 #: Idle bit times the host leaves after a read or version frame (the 4 reply
 #: bytes, 40 bit times, come back before it sends on, as rast load waits).
@@ -88,6 +89,10 @@ class ModelBoard:
             else:
                 raise AssertionError(f"rast load sent a byte that is no command: {cmd:#04x}")
 
+    def idle(self, bit_times: int):
+        """The host sends nothing for ``bit_times`` more bit times before its next byte."""
+        self._gap += int(bit_times)
+
     def _apply(self, addr, value):
         self.model.write(addr, value)
         self.applied.append((addr, value))
@@ -120,9 +125,9 @@ class ChainResult:
     tail_from: int
 
 
-def _build(sources: dict, work: Path, jobs: int = 2) -> Path:
+def _build(sources: dict, work: Path, defines=(), jobs: int = 2) -> Path:
     from rast.gateware.verilog import build_verilated
-    h = hashlib.sha256()
+    h = hashlib.sha256(" ".join(defines).encode())
     for name in sorted(sources):
         h.update(name.encode() + sources[name].encode())
     bdir = work / f"uart_chain-{h.hexdigest()[:16]}"
@@ -134,20 +139,27 @@ def _build(sources: dict, work: Path, jobs: int = 2) -> Path:
     for name, text in sources.items():
         (bdir / name).write_text(text)
     build_verilated(["--binary", "--timing", "-CFLAGS", "-fcoroutines", "--timescale", "1ns/1ps",
-                     "-O3", "-j", str(jobs), "--top-module", "rast_uart_chain", *sorted(sources)],
+                     "-O3", "-j", str(jobs), *(f"-D{d}" for d in defines),
+                     "--top-module", "rast_uart_chain", *sorted(sources)],
                     bdir, "the load chain")
     return exe
 
 
 def run_chain(system, sent, src_words, n_steps, work, *, tail=100_000) -> ChainResult:
-    """Simulate ``system`` (a :class:`rast.gateware.top.ReplaySystem`) receiving
-    the host bytes ``sent`` (``(byte, idle bit times before)``) while input
-    words ``src_words`` (repeated) stream in, for ``n_steps`` samples."""
+    """Simulate ``system`` (a :class:`rast.gateware.top.ReplaySystem`, or a
+    :class:`rast.sim.sdram_top.SDRAMSystemTop`: the host then starts once the
+    SDRAM is initialised) receiving the host bytes ``sent`` (``(byte, idle bit
+    times before)``) while input words ``src_words`` (repeated) stream in, for
+    ``n_steps`` samples."""
     from amaranth.back import verilog
+    from .sdram_top import SDRAMSystemTop
     work = Path(work)
-    sources = {"rast_system.v": verilog.convert(system, name="rast_system", emit_src=False),
-               "rast_uart_chain.v": resources.files("rast.sim").joinpath("rast_uart_chain.v").read_text()}
-    exe = _build(sources, work)
+    if isinstance(system, SDRAMSystemTop):
+        sources, defines = system.verilog_sources("rast_system"), ("RAST_SDRAM",)
+    else:
+        sources, defines = {"rast_system.v": verilog.convert(system, name="rast_system", emit_src=False)}, ()
+    sources["rast_uart_chain.v"] = resources.files("rast.sim").joinpath("rast_uart_chain.v").read_text()
+    exe = _build(sources, work, defines)
     run = work / "uart_chain-run"
     shutil.rmtree(run, ignore_errors=True)
     run.mkdir(parents=True)
@@ -176,3 +188,36 @@ def weighted_sums(y):
     v = np.asarray(y, dtype=np.int64).view(np.uint64)
     s1 = np.cumsum(v, dtype=np.uint64)
     return int(s1[-1]) if len(s1) else 0, int(np.sum(s1, dtype=np.uint64)) if len(s1) else 0
+
+
+def burst_train(pri: int = 1000, burst: int = 200, amplitude: int = 12000, omega: float = 0.3):
+    """One period of a pulse train for the chain's input (I, Q): a tone burst
+    of ``burst`` samples every ``pri`` (10 us every 50 us at 20 MS/s)."""
+    t = np.arange(pri)
+    xi = np.where(t < burst, np.round(amplitude * np.cos(omega * t)), 0).astype(np.int64)
+    xq = np.where(t < burst, np.round(amplitude * np.sin(omega * t)), 0).astype(np.int64)
+    return xi, xq
+
+
+def check_chain(rtl: ChainResult, board: ModelBoard, contract, xi, xq) -> np.ndarray:
+    """Check a chain run against the conversation and the bit-exact model:
+    the bridge answered what the protocol says, the bus saw exactly the writes
+    the host sent, and every output sample equals the model's given the same
+    writes at the same samples (position-weighted sums over all of them, and
+    the captured tail sample by sample). ``xi``, ``xq``: the input period.
+    Raises AssertionError naming what differs; returns the model's output (2, n)."""
+    if rtl.tx != bytes(board.replies):
+        raise AssertionError("the bridge's answers differ from the protocol's")
+    if [(a, d) for _, a, d in rtl.writes] != board.applied:
+        raise AssertionError("the bus saw other writes than the host sent")
+    n_out = rtl.sums["outs"]
+    y = np.stack(ReplayModel(contract).run_with_writes(np.resize(xi, n_out), np.resize(xq, n_out), rtl.writes))
+    for lane, k in (("i", 0), ("q", 1)):
+        if (rtl.sums[f"s1_{lane}"], rtl.sums[f"s2_{lane}"]) != weighted_sums(y[k]):
+            raise AssertionError(f"output {lane.upper()} differs from the model somewhere in {n_out} samples")
+    tail = y[:, rtl.tail_from:].T
+    bad = np.nonzero((rtl.tail != tail).any(axis=1))[0]
+    if bad.size:
+        raise AssertionError(f"first differing output {rtl.tail_from + bad[0]}: {rtl.tail[bad[0]]} "
+                             f"vs {tail[bad[0]]}")
+    return y

@@ -61,7 +61,7 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     from rast.gateware.top import ReplaySystem
     from rast.load import load_manifest
     from rast.model.hostproto import HostBridge
-    from rast.sim.uart_chain import ModelBoard, host_clocks, run_chain, weighted_sums
+    from rast.sim.uart_chain import ModelBoard, burst_train, check_chain, host_clocks, run_chain
 
     out = tmp_path / "out"
     assert main(["stream", str(ROOT / _make_default("EXAMPLE")), "--out", str(out)]) == 0
@@ -80,29 +80,12 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     result = load_manifest(HostBridge(board), out)                 # rast load's own code
     assert result["stream_words"] == sum(len(w) for w in read_manifest_dir(out)[1])
 
-    # A pulse train as the input: a 10 us chirp-free tone burst every 50 us.
-    pri, burst = 1000, 200
-    t = np.arange(pri)
-    xi = np.where(t < burst, np.round(12000 * np.cos(0.3 * t)), 0).astype(np.int64)
-    xq = np.where(t < burst, np.round(12000 * np.sin(0.3 * t)), 0).astype(np.int64)
+    xi, xq = burst_train()
     # the load takes host_clocks fabric clocks, a sample every `slots` of them; then
     # more play than the 100 k-sample tail the chain captures
     n_steps = -(-host_clocks(board.sent, system.divisor) // contract.slots) + contract.refill_samples + 120_000
     rtl = run_chain(system, board.sent, pack_iq(xi, xq), n_steps, tmp_path / "sim")
-
-    assert rtl.tx == bytes(board.replies), "the bridge's answers differ from the protocol's"
-    # The model: the same writes at the same samples.
-    model = ReplayModel(contract)
-    n_out = rtl.sums["outs"]
-    x_i, x_q = np.resize(xi, n_out), np.resize(xq, n_out)
-    y = np.stack(model.run_with_writes(x_i, x_q, rtl.writes))
-    assert [(a, d) for _, a, d in rtl.writes] == board.applied, "the bus saw other writes than rast load sent"
-    for lane, k in (("i", 0), ("q", 1)):
-        assert (rtl.sums[f"s1_{lane}"], rtl.sums[f"s2_{lane}"]) == weighted_sums(y[k]), \
-            f"output {lane.upper()} differs from the model somewhere in {n_out} samples"
-    tail = y[:, rtl.tail_from:].T
-    bad = np.nonzero((rtl.tail != tail).any(axis=1))[0]
-    assert not bad.size, f"first differing output {rtl.tail_from + bad[0]}: {rtl.tail[bad[0]]} vs {tail[bad[0]]}"
+    check_chain(rtl, board, contract, xi, xq)
     # the loaded streams play: both windmills' echoes of every burst (a fifth of the time)
     assert rtl.writes[-1][0] < rtl.tail_from, "the load had not ended when the tail began"
     assert np.count_nonzero(rtl.tail.any(axis=1)) > 0.15 * len(rtl.tail)

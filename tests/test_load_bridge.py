@@ -245,3 +245,13 @@ def test_a_word_damaged_on_the_line_is_refused_and_reported(tmp_path):
     st = read_status(br, c)
     assert [ch["rejected"] for ch in st["channels"]] == [1, 0]
     assert [ch["bank"] for ch in st["channels"]] == [0, 1]      # channel 0 never switched
+
+
+@pytest.mark.parametrize("pool, pool_words", [("bram", 81920), ("sdram", 1 << 23)])
+def test_the_contract_read_from_a_board_is_the_board_s(pool, pool_words):
+    """rast load rebuilds the contract from the capability registers: an SDRAM
+    bitstream's (whose pool may be larger than any block-RAM pool) included."""
+    from rast.sim.uart_chain import ModelBoard
+    c = ReplayContract(channels=64, slots=10, pool=pool, pool_words=pool_words, max_delay=8190, max_tap=2046,
+                       sample_rate_hz=20_000_000)
+    assert read_contract(HostBridge(ModelBoard(ReplayModel(c)))) == c
