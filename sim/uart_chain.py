@@ -29,7 +29,7 @@ from rast.model.fixedpoint import unpack_iq
 from rast.model.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
 
 __all__ = ["ModelBoard", "ChainResult", "run_chain", "host_clocks", "weighted_sums", "burst_train",
-           "check_chain"]
+           "check_chain", "SDRAMLoadChain", "sdram_load_chain"]
 
 #: Idle bit times the host leaves after a read or version frame (the 4 reply
 #: bytes, 40 bit times, come back before it sends on, as rast load waits).
@@ -221,3 +221,101 @@ def check_chain(rtl: ChainResult, board: ModelBoard, contract, xi, xq) -> np.nda
         raise AssertionError(f"first differing output {rtl.tail_from + bad[0]}: {rtl.tail[bad[0]]} "
                              f"vs {tail[bad[0]]}")
     return y
+
+
+#: Samples the chain waits for LiteDRAM's initialisation at most before the host's first byte.
+SDRAM_INIT_STEPS = 40_000
+
+
+@dataclass
+class SDRAMLoadChain:
+    rtl: ChainResult
+    y: np.ndarray              # the model's output, (2, n)
+    contract: object           # the system's ReplayContract
+    loads: list                # per load: (first, last) step of its bus writes
+    stream_words: list         # per load: stream words rast load sent
+
+
+def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, play_after: int = 80_000,
+                     tail: int = 60_000) -> SDRAMLoadChain:
+    """``rast load`` of each folder of ``manifest_dirs`` in turn through the
+    UART into the replay system of ``cfg`` (a :class:`rast.gateware.build.BuildConfig`
+    with ``pool="sdram"``) on LiteDRAM's simulation core, a tone-burst train
+    streaming in all the while; ``play_between`` samples between two loads
+    (the earlier farm plays alone) and ``play_after`` after the last. Checked
+    with :func:`check_chain` (every output sample equal to the model's), the
+    core initialised without error, no pool error; AssertionError otherwise."""
+    from rast.gateware.sdram.generate import generate_core
+    from rast.load import load_manifest
+    from rast.model.fixedpoint import pack_iq
+    from rast.model.hostproto import HostBridge
+    from .sdram_top import SDRAMSystemTop
+    if cfg.pool != "sdram":
+        raise ValueError(f"sdram_load_chain needs a build with pool='sdram', not {cfg.pool!r}")
+    system = SDRAMSystemTop(generate_core(sim=True), cfg.clock_mhz * 1e6, divisor=4, timeout=400,
+                            **{k: v for k, v in cfg.replay_kwargs().items() if k != "pool"},
+                            sample_rate_hz=round(cfg.sample_rate_mhz * 1e6))
+    contract = system.system.replay.contract
+    board = ModelBoard(ReplayModel(contract))
+    bridge = HostBridge(board)
+    counts, words = [], []
+    for k, d in enumerate(manifest_dirs):
+        if k:
+            board.idle(play_between * contract.slots // system.divisor)
+        words.append(load_manifest(bridge, d)["stream_words"])         # rast load's own code
+        counts.append(len(board.applied))
+    xi, xq = burst_train()
+    n_steps = (SDRAM_INIT_STEPS + -(-host_clocks(board.sent, system.divisor) // contract.slots)
+               + contract.refill_samples + play_after)
+    rtl = run_chain(system, board.sent, pack_iq(xi, xq), n_steps, work, tail=tail)
+    if not (rtl.sums["init_done"] and not rtl.sums["init_error"]):
+        raise AssertionError(f"LiteDRAM's initialisation: done {rtl.sums['init_done']}, "
+                             f"error {rtl.sums['init_error']}")
+    if rtl.sums["init_step"] >= SDRAM_INIT_STEPS:
+        raise AssertionError(f"LiteDRAM took {rtl.sums['init_step']} samples to initialise")
+    if rtl.sums["pool_error"]:
+        raise AssertionError("the SDRAM pool lost a request or a write (pool_error)")
+    y = check_chain(rtl, board, contract, xi, xq)
+    loads = [(rtl.writes[a][0], rtl.writes[b - 1][0]) for a, b in zip([0] + counts[:-1], counts)]
+    return SDRAMLoadChain(rtl, y, contract, loads, words)
+
+
+def main(argv=None) -> int:
+    """``python -m rast.sim.uart_chain CONFIG [CONFIG ...] --out DIR``: stream
+    each config (``rast stream``), then :func:`sdram_load_chain` of them in
+    turn into ``rast build --sdram``'s system; prints what it checked."""
+    import argparse
+    import dataclasses
+    import time
+    from rast.cli import main as rast_main
+    from rast.gateware.build import BuildConfig
+    p = argparse.ArgumentParser(prog="python -m rast.sim.uart_chain", description=main.__doc__)
+    p.add_argument("configs", nargs="+", help="farm configs (TOML), loaded in this order")
+    p.add_argument("--out", required=True, help="folder for the streams and the simulation")
+    p.add_argument("--channels", type=int, default=BuildConfig().channels)
+    p.add_argument("--between-ms", type=float, default=100.0, help="radar time between two loads")
+    p.add_argument("--after-ms", type=float, default=100.0, help="radar time after the last load")
+    args = p.parse_args(argv)
+    cfg = dataclasses.replace(BuildConfig(pool="sdram"), channels=args.channels)
+    out = Path(args.out)
+    dirs = []
+    for k, config in enumerate(args.configs):
+        dirs.append(out / f"load{k}")
+        if rast_main(["stream", config, "--out", str(dirs[-1])]) != 0:
+            return 1
+    per_ms = round(cfg.sample_rate_mhz * 1e3)
+    t0 = time.monotonic()
+    run = sdram_load_chain(cfg, dirs, out / "sim", play_between=round(args.between_ms * per_ms),
+                           play_after=round(args.after_ms * per_ms))
+    n = run.rtl.steps
+    print(f"{cfg.channels} channels, pool in SDRAM ({run.contract.pool_words} words), UART at 4 clocks per bit")
+    for k, ((a, b), words) in enumerate(zip(run.loads, run.stream_words)):
+        print(f"load {k}: {words} stream words, bus writes from sample {a} to {b} ({(b - a) / per_ms:.1f} ms)")
+    print(f"{n} samples ({n / per_ms:.1f} ms of radar time, {n * run.contract.slots} clocks), LiteDRAM "
+          f"initialised at sample {run.rtl.sums['init_step']}, no pool error; every output sample equal to "
+          f"the model's; {time.monotonic() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

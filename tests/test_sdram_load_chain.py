@@ -11,10 +11,8 @@ import pytest
 
 from rast.cli import main
 from rast.gateware.build import BuildConfig, build
-from rast.load import load_manifest, read_manifest_dir
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.hostproto import HostBridge
+from rast.load import read_manifest_dir
+from rast.model.fixedpoint import ReplayContract
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,15 +35,9 @@ rsc = [1.0]
 """
 
 
-#: Samples the first farm plays alone before the host sends the second.
-PLAY_FIRST = 20_000
-
-
 @pytest.mark.slow
 def test_rast_load_through_the_uart_into_sdram_and_a_reload_while_playing(tmp_path):
-    from rast.sim.sdram_top import SDRAMSystemTop
-    from rast.gateware.sdram.generate import generate_core
-    from rast.sim.uart_chain import ModelBoard, burst_train, check_chain, host_clocks, run_chain
+    from rast.sim.uart_chain import sdram_load_chain
 
     first, second = tmp_path / "first", tmp_path / "second"
     assert main(["stream", str(ROOT / "examples" / "two_windmills.toml"), "--out", str(first)]) == 0
@@ -55,34 +47,12 @@ def test_rast_load_through_the_uart_into_sdram_and_a_reload_while_playing(tmp_pa
     cfg = dataclasses.replace(BuildConfig(pool="sdram"), channels=BuildConfig().slots)
     contract = ReplayContract.from_dict(build(cfg, tmp_path / "bit", quiet=True, run_tools=False)["build"])
     assert contract.pool == "sdram"
-    system = SDRAMSystemTop(generate_core(sim=True), cfg.clock_mhz * 1e6, divisor=4, timeout=400,
-                            **{k: v for k, v in cfg.replay_kwargs().items() if k != "pool"},
-                            sample_rate_hz=contract.sample_rate_hz)
-    assert system.system.replay.contract == contract
 
-    board = ModelBoard(ReplayModel(contract))
-    bridge = HostBridge(board)
-    loaded = [load_manifest(bridge, first)["stream_words"]]          # rast load's own code
-    n_first = len(board.applied)
-    board.idle(PLAY_FIRST * contract.slots // system.divisor)   # the first farm plays alone a while
-    loaded.append(load_manifest(bridge, second)["stream_words"])
-    assert loaded == [sum(len(w) for w in read_manifest_dir(d)[1]) for d in (first, second)]
-    assert board.model.enable[:2] == [1, 0]               # the second farm: channel 0 only
-
-    xi, xq = burst_train()
-    # the host starts once the SDRAM is initialised; its bytes then take host_clocks fabric
-    # clocks, a sample every `slots` of them; then more play than the 60 k-sample tail
-    init_steps = 40_000
-    n_steps = (init_steps + -(-host_clocks(board.sent, system.divisor) // contract.slots)
-               + contract.refill_samples + 80_000)
-    rtl = run_chain(system, board.sent, pack_iq(xi, xq), n_steps, tmp_path / "sim", tail=60_000)
-    assert rtl.sums["init_done"] == 1 and rtl.sums["init_error"] == 0
-    assert rtl.sums["init_step"] < init_steps, f"LiteDRAM took {rtl.sums['init_step']} samples to initialise"
-    assert rtl.sums["pool_error"] == 0
-    y = check_chain(rtl, board, contract, xi, xq)
-    assert rtl.writes[-1][0] < rtl.tail_from, "the second load had not ended when the tail began"
+    run = sdram_load_chain(cfg, [first, second], tmp_path / "sim", play_between=20_000, play_after=80_000)
+    assert run.contract == contract
+    assert run.stream_words == [sum(len(w) for w in read_manifest_dir(d)[1]) for d in (first, second)]
+    (_, first_to), (second_from, second_to) = run.loads
+    assert second_from - first_to >= 20_000 and second_to < run.rtl.tail_from
     # both farms played: the first's echoes between the two loads, the second's in the tail
-    first_to, second_from = rtl.writes[n_first - 1][0], rtl.writes[n_first][0]
-    assert second_from - first_to >= PLAY_FIRST
-    assert np.count_nonzero(y[:, first_to:second_from].any(axis=0)) > 0.1 * (second_from - first_to)
-    assert np.count_nonzero(rtl.tail.any(axis=1)) > 0.1 * len(rtl.tail)
+    assert np.count_nonzero(run.y[:, first_to:second_from].any(axis=0)) > 0.1 * (second_from - first_to)
+    assert np.count_nonzero(run.rtl.tail.any(axis=1)) > 0.1 * len(run.rtl.tail)
