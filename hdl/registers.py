@@ -170,6 +170,9 @@ class RegisterFile(wiring.Component):
             "overflow": Out(1),
             "underflow_set": In(1),
             "underflow": Out(1),
+            **({"check_start": Out(1), "check_addr": Out(c.pool_address_width),
+                "check_words": Out(c.length_width), "check_busy": In(1), "check_crc": In(32)}
+               if rmap.has("POOL_CHECK") else {}),
         })
 
     @property
@@ -406,6 +409,18 @@ class RegisterFile(wiring.Component):
             return word[:32] if any_bit else None
 
         hooks_stored = {("STREAM_CRC", None, "crc"): ~run_crc, ("STREAM_COUNT", None, "count"): run_count}
+        if rmap.has("POOL_CHECK"):
+            # The SDRAM pool's read-back (PoolReadCheck): started the clock
+            # after its write lands, from the STREAM_ADDR stored then; busy
+            # from that clock on, so that no read after the write misses it.
+            check = rmap.reg("POOL_CHECK")
+            m.d.sync += self.check_start.eq(strobe[check.addr])
+            with m.If(strobe[check.addr]):
+                words = check.field("words")
+                m.d.sync += [self.check_addr.eq(addr),
+                             self.check_words.eq(land_data[None][words.lsb:words.lsb + words.width])]
+            hooks_stored[("POOL_CHECK", None, "busy")] = self.check_busy | self.check_start
+            hooks_stored[("POOL_CHECK_CRC", None, "crc")] = self.check_crc
         for l in range(N):
             hooks_stored[("CTRL", l, "rejected")] = rejected[l]
 

@@ -9,6 +9,7 @@ from .iq import IQ
 from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
+from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
@@ -254,8 +255,15 @@ class WindFarmReplay(wiring.Component):
                     m.d.sync += w_lost.eq(1)
             with m.Elif(pool.w_ready):
                 m.d.sync += w_held.eq(0)
-            m.d.comb += [pool.w_valid.eq(w_held), pool.w_addr.eq(w_held_addr), pool.w_data.eq(w_held_data),
-                         pool.rd_valid.eq(0)]
+            m.d.comb += [pool.w_valid.eq(w_held), pool.w_addr.eq(w_held_addr), pool.w_data.eq(w_held_data)]
+            # POOL_CHECK: the host's read-back of what the SDRAM holds
+            m.submodules.pool_check = check = PoolReadCheck(c.pool_address_width, c.length_width)
+            m.d.comb += [check.start.eq(regs.check_start), check.addr.eq(regs.check_addr),
+                         check.words.eq(regs.check_words), regs.check_busy.eq(check.busy),
+                         regs.check_crc.eq(check.crc),
+                         pool.rd_valid.eq(check.rd_valid), pool.rd_addr.eq(check.rd_addr),
+                         check.rd_ready.eq(pool.rd_ready), check.rd_data_valid.eq(pool.rd_data_valid),
+                         check.rd_data.eq(pool.rd_data)]
         else:
             m.submodules.pool = pool = StreamPool(c.pool_words, pool_tag.size, init=self._pool_init)
             m.d.comb += [pool.w_en.eq(regs.wr_en), pool.w_addr.eq(regs.wr_addr), pool.w_data.eq(regs.wr_data)]

@@ -158,6 +158,7 @@ class ReplayModel:
         self.run_start, self.run_count, self.run_crc = 0, 0, 0
         self._count_max = (1 << c.length_width) - 1
         self.crc_next = [0] * N
+        self.check_crc = 0                 # POOL_CHECK_CRC (SDRAM pool)
         self.rejected = [0] * N
         self.overflow = 0
         self.steps = 0
@@ -230,6 +231,13 @@ class ReplayModel:
         elif r.name == "STREAM_ADDR":
             self.stream_addr = fv("addr")
             self.run_start, self.run_count, self.run_crc = self.stream_addr, 0, 0
+        elif r.name == "POOL_CHECK":
+            # the read-back of the pool from STREAM_ADDR on (the gateware's takes
+            # a while, busy meanwhile; the model's answer is the one it ends with)
+            n = fv("words")
+            addr = (self.stream_addr + np.arange(n)) & self._amask
+            words = np.where(addr < self.c.pool_words, self.pool[np.minimum(addr, self.c.pool_words - 1)], 0)
+            self.check_crc = stream_crc32(words.tolist())
         elif r.name == "STREAM_DATA":
             self.run_crc = stream_crc32((value,), self.run_crc)
             self.run_count = min(self.run_count + 1, self._count_max)
@@ -255,7 +263,7 @@ class ReplayModel:
                   "COMMON_DELAY": lambda: self.common_next,
                   "BASE": lambda: self.base_next[l], "STREAM_ADDR": lambda: self.stream_addr,
                   "STREAM_CRC": lambda: self.run_crc,
-                  "STREAM_COUNT": lambda: self.run_count}
+                  "STREAM_COUNT": lambda: self.run_count, "POOL_CHECK_CRC": lambda: self.check_crc}
         if r.name in stored:
             return stored[r.name]()
         v = 0

@@ -724,6 +724,17 @@ class ReplayContract:
             return POOL_FETCH_CYCLES
         return POOL_FETCH_CYCLES + self._fabric_cycles(sdram_fetch_clocks())
 
+    #: Fabric clocks PoolReadCheck adds per word to the pool's: its request
+    #: register and the four CRC clocks.
+    POOL_CHECK_EXTRA_CYCLES = 6
+
+    def pool_check_seconds(self, words: int) -> float:
+        """Longest an SDRAM pool's POOL_CHECK of ``words`` words may take: a
+        word at a time, each within the fetch bound (behind whatever the
+        channels fetch, refresh and host writes)."""
+        fabric_hz = self.clock_hz or SDRAM_FABRIC_HZ
+        return int(words) * (self.pool_fetch_cycles + self.POOL_CHECK_EXTRA_CYCLES) / fabric_hz
+
     @property
     def pool_word_cycles(self) -> int:
         """Fabric clocks the pool may take per fetched word under load: 1 for

@@ -97,7 +97,35 @@ Full load: `CTRL = 0` for every channel, then per channel its stream (steps
 Delays: write COMMON_DELAY and DELAY[l] for any channels, then `APPLY = 1`:
 all take effect in the same sample. An echo of channel l appears
 L + COMMON_DELAY + DELAY[l] samples after its input.
+
+## SDRAM pool: reading the streams back
+
+A block whose pool is in SDRAM (`CONFIG.sdram` = 1, `rast build --sdram`) has
+two more registers. The stream check above covers the words as they arrived;
+these read them back out of the SDRAM, so that a word stored wrong (an SDRAM
+clock phase off on a new board) is told from one lost on the line:
+
+{markdown(_pool_check_map(c))}
+`STREAM_ADDR = a`, then `POOL_CHECK = n`: the block reads the n words from
+`a` on, one at a time, between the channels' fetches, and keeps their CRC-32
+(zlib's, as for CRC[l]). Poll POOL_CHECK until busy (bit 31) reads 0, then
+read POOL_CHECK_CRC. A read-back takes at most
+`ReplayContract.pool_check_seconds(n)` (a fetch bound per word). A
+POOL_CHECK write while busy is ignored, and words written into the region
+while busy make its CRC-32 one of a mix. The read-back takes the host's turns
+at the SDRAM, so the channels' fetches keep their bound.
+`rast load --verify` does this for every stream it wrote
+(`rast.load.verify_pool`).
 """
+
+
+def _pool_check_map(c: ReplayContract):
+    """The read-back registers of an SDRAM pool of the largest size, alone."""
+    import dataclasses
+    from .fixedpoint import SDRAM_MAX_POOL_WORDS
+    from .regmap import RegisterMap
+    sd = dataclasses.replace(c, pool="sdram", pool_words=SDRAM_MAX_POOL_WORDS)
+    return RegisterMap(sd, [r for r in register_map(sd).registers if r.name.startswith("POOL_CHECK")])
 
 
 

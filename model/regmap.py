@@ -104,6 +104,9 @@ class RegisterMap:
     def addr(self, name, channel=None) -> int:
         return self.reg(name, channel).addr
 
+    def has(self, name, channel=None) -> bool:
+        return (name, channel) in self._by_key
+
     def by_addr(self, addr) -> Register | None:
         return self._by_addr.get(addr)
 
@@ -186,6 +189,19 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                               "write (stops at the field's largest value)"),),
                  "stream write path: what a switch is checked against"),
     ]
+    if c.pool == "sdram":
+        regs += [
+            Register("POOL_CHECK", 0x0E, (
+                Field("words", 0, c.length_width, "wo", 0,
+                      "write N: read N words back from the pool, from STREAM_ADDR on, into "
+                      "POOL_CHECK_CRC"),
+                Field("busy", 31, 1, "ro", 0, "1 while the read-back runs")),
+                "stream pool read-back (SDRAM pool): what the SDRAM holds, not what arrived"),
+            Register("POOL_CHECK_CRC", 0x0F, (Field("crc", 0, 32, "ro", 0,
+                                                    "CRC-32 of the words the last POOL_CHECK read back "
+                                                    "(valid once busy reads 0)"),),
+                     "stream pool read-back (SDRAM pool)"),
+        ]
     for ch in range(c.channels):
         base = CHANNEL_BASE + CHANNEL_STRIDE * ch
         ini = inits[ch]

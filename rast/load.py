@@ -15,12 +15,12 @@ import time
 
 from rast.errors import UserError, manifest_streams, read_manifest
 from rast.model.fixedpoint import INTERPOLATIONS, ReplayContract
-from rast.model.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, ProtocolError, line_seconds
-from rast.model.regmap import ID_VALUE, register_map, CTRL_ENABLE, CTRL_REJECTED
+from rast.model.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, ProtocolError, line_bytes
+from rast.model.regmap import ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED
 from rast.model.loadplan import manifest_to_register_writes
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
-           "send_writes", "read_status", "LoadError"]
+           "send_writes", "read_status", "verify_pool", "stream_runs", "LoadError"]
 
 _GLOBAL = register_map(ReplayContract(channels=1))
 
@@ -93,17 +93,25 @@ def plan_writes(manifest, contract, words=None):
                         f"{contract.latency}): {error}") from None
 
 
-def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress=None):
-    """Write the manifest in ``manifest_dir`` into the block; verify by reading back.
+def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress=None, verify=False,
+                  wait=time.sleep):
+    """Write the manifest in ``manifest_dir`` into the block; verify by reading back
+    the registers (and with ``verify`` the streams, out of an SDRAM pool:
+    :func:`verify_pool`, ``wait`` as there).
 
     Returns a dict of what was done. Raises :class:`rast.errors.UserError` for a
     missing, malformed or unfitting manifest (before any write) and
     :class:`LoadError` on a read-back mismatch."""
     manifest, words = read_manifest_dir(manifest_dir, streams)
     contract = contract or read_contract(bridge)
+    if verify and not register_map(contract).has("POOL_CHECK"):
+        verify_pool(bridge, contract, [])            # says why, before anything is written
     writes = plan_writes(manifest, contract, words)
-    return send_writes(bridge, writes, contract, progress,
-                       channels=len(manifest["registers"]["channels"]))
+    res = send_writes(bridge, writes, contract, progress, channels=len(manifest["registers"]["channels"]))
+    res["line_bytes"] = line_bytes(writes)
+    if verify:
+        res.update(verify_pool(bridge, contract, writes, wait))
+    return res
 
 
 def send_writes(bridge, writes, contract, progress=None, *, channels=None):
@@ -133,6 +141,59 @@ def send_writes(bridge, writes, contract, progress=None, *, channels=None):
     return {"writes": len(writes), "stream_words": n_words, "seconds": dt, "channels": channels}
 
 
+#: Polls of POOL_CHECK's busy bit, after the longest a read-back may take,
+#: before it is given up.
+CHECK_POLLS = 100
+
+
+def stream_runs(writes, rmap) -> list:
+    """``[(base, words), ...]``: the streams ``writes`` put in the pool (a
+    STREAM_ADDR write and the STREAM_DATA words after it)."""
+    a_addr, a_data = rmap.addr("STREAM_ADDR"), rmap.addr("STREAM_DATA")
+    runs = []
+    for addr, value in writes:
+        if addr == a_addr:
+            runs.append((value, []))
+        elif addr == a_data and runs:
+            runs[-1][1].append(value)
+    return [(base, words) for base, words in runs if words]
+
+
+def verify_pool(bridge, contract, writes, wait=time.sleep) -> dict:
+    """Read every stream of ``writes`` back out of an SDRAM pool (POOL_CHECK)
+    and compare its CRC-32 with the words sent; :class:`LoadError` naming the
+    streams that differ. ``wait(seconds)`` waits the longest a read-back may
+    take before the busy bit is polled."""
+    rmap = register_map(contract)
+    if not rmap.has("POOL_CHECK"):
+        raise UserError("this bitstream's stream pool is block RAM, which has no read-back: every "
+                        "stream's CRC-32 is checked by the block as it arrives (build with --sdram "
+                        "for a pool that can be read back)")
+    a = rmap.addr
+    t0 = time.monotonic()
+    bad, n_words = [], 0
+    for base, words in stream_runs(writes, rmap):
+        bridge.write(a("STREAM_ADDR"), base)
+        bridge.write(a("POOL_CHECK"), len(words))
+        wait(contract.pool_check_seconds(len(words)))
+        for _ in range(CHECK_POLLS):
+            if not bridge.read(a("POOL_CHECK")) >> 31:
+                break
+            wait(0.01)
+        else:
+            raise LoadError(f"the read-back of the stream at pool address {base} did not finish: "
+                            "is the SDRAM initialised (LED 2)?")
+        got, want = bridge.read(a("POOL_CHECK_CRC")), stream_crc32(words)
+        if got != want:
+            bad.append(f"{len(words)} words at {base} (CRC-32 {got:#010x}, sent {want:#010x})")
+        n_words += len(words)
+    if bad:
+        raise LoadError("The SDRAM returns other words than were written for the streams of "
+                        + "; ".join(bad) + ": the words arrived intact (the block checked their CRC-32) "
+                        "but were not stored right; check the SDRAM clock phase (docs/sdram.md)")
+    return {"verified_words": n_words, "verify_seconds": time.monotonic() - t0}
+
+
 def read_status(bridge, contract):
     rmap = register_map(contract)
     status = bridge.read(rmap.addr("STATUS"))           # one read: it clears both flags
@@ -156,6 +217,9 @@ def add_arguments(p):
                         "bitstream's, `rast build --baud`)")
     p.add_argument("--no-streams", action="store_true",
                    help="write gains and delays only, not the streams")
+    p.add_argument("--verify", action="store_true",
+                   help="then read every stream back out of the SDRAM and compare its CRC-32 (an "
+                        "SDRAM bitstream's; a bring-up check of the SDRAM clock phase)")
     p.add_argument("--status", action="store_true", help="only read and print the status")
 
 
@@ -179,9 +243,8 @@ def run(args) -> int:
         raise UserError("give MANIFEST_DIR (or --status)")
     if args.baud <= 0:
         raise UserError(f"--baud must be a positive number of bit/s, not {args.baud}")
-    manifest = words = None
-    if not args.status:
-        manifest, words = read_manifest_dir(args.manifest_dir, streams=not args.no_streams)
+    if not args.status:          # a bad manifest is refused before the port is opened
+        read_manifest_dir(args.manifest_dir, streams=not args.no_streams)
     try:
         port = serial.Serial(args.port, args.baud, timeout=1.0)
     except (serial.SerialException, ValueError) as error:   # ValueError: a rate the port refuses
@@ -193,18 +256,19 @@ def run(args) -> int:
             bridge.resync(drain=port.reset_input_buffer)
             contract = read_contract(bridge)
             if not args.status:
-                writes = plan_writes(manifest, contract, words)
-
                 def progress(done, total):
                     if done == total or done % 2048 == 0:
                         print(f"\r  {done}/{total} writes", end="", flush=True)
-                res = send_writes(bridge, writes, contract, progress,
-                                  channels=len(manifest["registers"]["channels"]))
+                res = load_manifest(bridge, args.manifest_dir, contract, streams=not args.no_streams,
+                                    progress=progress, verify=args.verify)
                 rate = res["stream_words"] / res["seconds"] if res["seconds"] > 0 else 0.0
                 print(f"\nloaded {res['channels']} windmill(s), {res['stream_words']} stream words "
                       f"in {res['seconds']:.1f} s ({rate / 1e3:.1f} k words/s, "
-                      f"{line_seconds(writes, args.baud):.1f} s of line time at {args.baud} baud); "
+                      f"{res['line_bytes'] * 10 / args.baud:.1f} s of line time at {args.baud} baud); "
                       f"read-back matches, every stream's CRC-32 checked by the block")
+                if args.verify:
+                    print(f"read {res['verified_words']} stream words back out of the SDRAM in "
+                          f"{res['verify_seconds']:.1f} s: every stream's CRC-32 matches")
             _print_status(read_status(bridge, contract))
     except (LoadError, ProtocolError, ValueError, OSError) as e:
         print(f"rast load: {e}", file=sys.stderr)

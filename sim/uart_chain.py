@@ -237,12 +237,15 @@ class SDRAMLoadChain:
 
 
 def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, play_after: int = 80_000,
-                     tail: int = 60_000) -> SDRAMLoadChain:
+                     tail: int = 60_000, verify_last: bool = False) -> SDRAMLoadChain:
     """``rast load`` of each folder of ``manifest_dirs`` in turn through the
     UART into the replay system of ``cfg`` (a :class:`rast.gateware.build.BuildConfig`
     with ``pool="sdram"``) on LiteDRAM's simulation core, a tone-burst train
     streaming in all the while; ``play_between`` samples between two loads
-    (the earlier farm plays alone) and ``play_after`` after the last. Checked
+    (the earlier farm plays alone) and ``play_after`` after the last; with
+    ``verify_last`` the last load is ``rast load --verify``'s (every stream
+    read back out of the SDRAM, the host waiting the contract's bound before
+    it polls: the bridge's answers then show whether the bound held). Checked
     with :func:`check_chain` (every output sample equal to the model's), the
     core initialised without error, no pool error; AssertionError otherwise."""
     from rast.gateware.sdram.generate import generate_core
@@ -258,11 +261,17 @@ def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, pl
     contract = system.system.replay.contract
     board = ModelBoard(ReplayModel(contract))
     bridge = HostBridge(board)
+
+    def wait(seconds):                  # the host waits: the line idles
+        board.idle(-(-round(seconds * cfg.clock_mhz * 1e6) // system.divisor))
+
     counts, words = [], []
     for k, d in enumerate(manifest_dirs):
         if k:
             board.idle(play_between * contract.slots // system.divisor)
-        words.append(load_manifest(bridge, d)["stream_words"])         # rast load's own code
+        verify = verify_last and k == len(manifest_dirs) - 1
+        res = load_manifest(bridge, d, verify=verify, wait=wait)          # rast load's own code
+        words.append(res["stream_words"])
         counts.append(len(board.applied))
     xi, xq = burst_train()
     n_steps = (SDRAM_INIT_STEPS + -(-host_clocks(board.sent, system.divisor) // contract.slots)

@@ -1,7 +1,9 @@
 """`rast load` through the UART into the SDRAM: the SDRAM bitstream's replay system (UART bridge
 + engine with its pool in SDRAM) on LiteDRAM's simulation core, in Verilator, samples streaming
-all the while; then a second load (another farm) while the first plays. Every output sample equal
-to the bit-exact model given the same register writes at the same samples."""
+all the while; then a second load (another farm) while the first plays, read back out of the SDRAM
+(`rast load --verify`). Every output sample equal to the bit-exact model given the same register
+writes at the same samples, every answer of the bridge (the read-back's CRC-32s among them) the
+protocol's."""
 
 import dataclasses
 from pathlib import Path
@@ -48,7 +50,8 @@ def test_rast_load_through_the_uart_into_sdram_and_a_reload_while_playing(tmp_pa
     contract = ReplayContract.from_dict(build(cfg, tmp_path / "bit", quiet=True, run_tools=False)["build"])
     assert contract.pool == "sdram"
 
-    run = sdram_load_chain(cfg, [first, second], tmp_path / "sim", play_between=20_000, play_after=80_000)
+    run = sdram_load_chain(cfg, [first, second], tmp_path / "sim", play_between=20_000, play_after=80_000,
+                           verify_last=True)
     assert run.contract == contract
     assert run.stream_words == [sum(len(w) for w in read_manifest_dir(d)[1]) for d in (first, second)]
     (_, first_to), (second_from, second_to) = run.loads

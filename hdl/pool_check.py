@@ -1,0 +1,73 @@
+"""Read-back check of an SDRAM stream pool: the CRC-32 of what the SDRAM holds.
+
+The stream check of the register file (``STREAM_CRC``) covers the words as
+they arrived over the bus; this one reads them back out of the SDRAM, so that
+a host can tell a word stored wrong (a bad SDRAM clock phase on a new board,
+a marginal timing) from one lost on the line. ``POOL_CHECK`` (docs/registers.md)
+starts it.
+"""
+
+from amaranth.hdl import Module, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from .registers import crc32_step
+
+__all__ = ["PoolReadCheck"]
+
+
+class PoolReadCheck(wiring.Component):
+    """Reads ``words`` pool words from ``addr`` on through the pool's host
+    read port, one at a time, and keeps the CRC-32 of them (zlib's, each word
+    as four bytes, least significant first; a byte a clock).
+
+    Parameters
+    ----------
+    addr_width : int
+        Bits of a pool address (addresses wrap at it).
+    count_width : int
+        Bits of ``words``.
+
+    Members
+    -------
+    start : In(1), addr : In(addr_width), words : In(count_width)
+        A strobe and what to read; a start while busy is ignored (a read
+        answer may still be on its way).
+    busy : Out(1)
+    crc : Out(32)
+        zlib's CRC-32 of the words read so far (of all of them once ``busy`` is 0).
+    rd_valid : Out(1), rd_ready : In(1), rd_addr : Out(addr_width)
+    rd_data_valid : In(1), rd_data : In(32)
+        The pool's host read port (``SDRAMStreamPool``): answers in order.
+    """
+
+    def __init__(self, addr_width: int, count_width: int):
+        for name, v in (("Address width", addr_width), ("Count width", count_width)):
+            if not isinstance(v, int) or isinstance(v, bool) or v < 1:
+                raise ValueError(f"{name} must be a positive integer, not {v!r}")
+        super().__init__({
+            "start": In(1), "addr": In(addr_width), "words": In(count_width),
+            "busy": Out(1), "crc": Out(32),
+            "rd_valid": Out(1), "rd_ready": In(1), "rd_addr": Out(addr_width),
+            "rd_data_valid": In(1), "rd_data": In(32),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        reg = Signal(32, init=0xFFFFFFFF)
+        left = Signal.like(self.words)
+        word = Signal(32)
+        byte = Signal(range(5))          # bytes of ``word`` still to shift in
+        asked = Signal()                 # the read of this word went out
+        m.d.comb += [self.busy.eq((left != 0) | (byte != 0)), self.crc.eq(~reg),
+                     self.rd_valid.eq((left != 0) & ~asked & (byte == 0))]
+        with m.If(self.start & ~self.busy):
+            m.d.sync += [reg.eq(0xFFFFFFFF), left.eq(self.words), self.rd_addr.eq(self.addr)]
+        with m.Else():
+            with m.If(self.rd_valid & self.rd_ready):
+                m.d.sync += [asked.eq(1), self.rd_addr.eq(self.rd_addr + 1)]
+            with m.If(asked & self.rd_data_valid):
+                m.d.sync += [word.eq(self.rd_data), byte.eq(4), asked.eq(0), left.eq(left - 1)]
+            with m.If(byte != 0):
+                m.d.sync += [reg.eq(crc32_step(reg, word[:8])), word.eq(word >> 8), byte.eq(byte - 1)]
+        return m
