@@ -104,8 +104,8 @@ def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress
     :class:`LoadError` on a read-back mismatch."""
     manifest, words = read_manifest_dir(manifest_dir, streams)
     contract = contract or read_contract(bridge)
-    if verify and not register_map(contract).has("POOL_CHECK"):
-        verify_pool(bridge, contract, [])            # says why, before anything is written
+    if verify:
+        _require_read_back(contract)                 # before anything is written
     writes = plan_writes(manifest, contract, words)
     res = send_writes(bridge, writes, contract, progress, channels=len(manifest["registers"]["channels"]))
     res["line_bytes"] = line_bytes(writes)
@@ -159,16 +159,22 @@ def stream_runs(writes, rmap) -> list:
     return [(base, words) for base, words in runs if words]
 
 
-def verify_pool(bridge, contract, writes, wait=time.sleep) -> dict:
-    """Read every stream of ``writes`` back out of an SDRAM pool (POOL_CHECK)
-    and compare its CRC-32 with the words sent; :class:`LoadError` naming the
-    streams that differ. ``wait(seconds)`` waits the longest a read-back may
-    take before the busy bit is polled."""
+def _require_read_back(contract):
+    """The register map of ``contract``, which must have POOL_CHECK (UserError otherwise)."""
     rmap = register_map(contract)
     if not rmap.has("POOL_CHECK"):
         raise UserError("this bitstream's stream pool is block RAM, which has no read-back: every "
                         "stream's CRC-32 is checked by the block as it arrives (build with --sdram "
                         "for a pool that can be read back)")
+    return rmap
+
+
+def verify_pool(bridge, contract, writes, wait=time.sleep) -> dict:
+    """Read every stream of ``writes`` back out of an SDRAM pool (POOL_CHECK)
+    and compare its CRC-32 with the words sent; :class:`LoadError` naming the
+    streams that differ. ``wait(seconds)`` waits the longest a read-back may
+    take before the busy bit is polled."""
+    rmap = _require_read_back(contract)
     a = rmap.addr
     t0 = time.monotonic()
     bad, n_words = [], 0

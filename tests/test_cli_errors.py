@@ -46,7 +46,7 @@ def config(tmp_path):
     return path
 
 
-def write_manifest(folder, lengths=(3,), delays=(100,)):
+def write_manifest(folder, lengths=(3,), delays=(100,), increment=1 << 31):
     """A `rast stream`-shaped manifest with short streams, as in test_hdl_verilog."""
     folder.mkdir(parents=True, exist_ok=True)
     wms, chans = [], []
@@ -54,7 +54,7 @@ def write_manifest(folder, lengths=(3,), delays=(100,)):
         words = pack_iq(list(range(100, 100 + n)), [0] * n)
         (folder / f"w{k}.hex").write_text("".join(f"{int(w):08x}\n" for w in words))
         wms.append({"name": f"w{k}", "hex_file": f"w{k}.hex", "length": n})
-        chans.append({"windmill": f"w{k}", "enable": 1, "length": n, "phase_increment": 1 << 31,
+        chans.append({"windmill": f"w{k}", "enable": 1, "length": n, "phase_increment": increment,
                       "gain": 1 << 16, "delay_samples": d})
     manifest = {"format": "rast-manifest/2", "windmills": wms, "registers": {"channels": chans}}
     (folder / "manifest.json").write_text(json.dumps(manifest))
@@ -431,6 +431,43 @@ def test_load_manifest_that_does_not_fit_writes_nothing(tmp_path, capsys, monkey
                       "does not fit the bitstream's replay block (1 channel(s), pool words 64",
                       "2 windmills")
     assert sent == []
+
+
+def _model_port(monkeypatch, contract):
+    """serial.Serial replaced by a board that answers from the bit-exact model."""
+    import serial
+    from rast.model.datapath import ReplayModel
+    from rast.sim.uart_chain import ModelBoard
+    board = ModelBoard(ReplayModel(contract))
+
+    class Port:
+        def __init__(self, *args, **kwargs): pass
+        def __enter__(self): return self
+        def __exit__(self, *exc): return False
+        def write(self, data): board.write(data)
+        def read(self, n): return board.read(n)
+        def reset_input_buffer(self): pass
+    monkeypatch.setattr(serial, "Serial", Port)
+    return board
+
+
+def test_load_verify_reads_the_streams_back_out_of_the_sdram(tmp_path, capsys, monkeypatch):
+    from rast.model.regmap import stream_crc32
+    board = _model_port(monkeypatch, ReplayContract(channels=2, pool="sdram", pool_words=1 << 12,
+                                                    max_delay=120, max_tap=14))
+    write_manifest(tmp_path / "m", lengths=(8, 9), delays=(100, 102), increment=1 << 20)
+    assert main(["load", str(tmp_path / "m"), "--port", "fake", "--verify"]) == 0
+    assert "read 17 stream words back out of the SDRAM" in capsys.readouterr().out
+    # the last read-back on the board was the second stream's
+    assert board.model.check_crc == stream_crc32(pack_iq(list(range(100, 109)), [0] * 9))
+
+
+def test_load_verify_on_a_block_ram_bitstream_writes_nothing(tmp_path, capsys, monkeypatch):
+    board = _model_port(monkeypatch, ReplayContract(channels=2, pool_words=64, max_delay=120, max_tap=14))
+    write_manifest(tmp_path / "m", lengths=(3, 4), delays=(100, 102))
+    assert_user_error(*rast(["load", tmp_path / "m", "--port", "fake", "--verify"], capsys), "load",
+                      "block RAM, which has no read-back")
+    assert board.applied == []
 
 
 # ------------------------------------------------------------ the executable
