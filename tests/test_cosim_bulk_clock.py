@@ -19,7 +19,9 @@ from rast.sim.scenario import TEST_CONTRACT
 from rast.sim.top import top_sources
 
 
-@pytest.mark.parametrize("slots", [1, 4])
+#: One engine shape: the clocking is the wrapper's, the same whatever the DUT; M = 4 makes the
+#: cycle count differ from the sample count, so a lost cycle cannot hide in a sample.
+@pytest.mark.parametrize("slots", [4])
 def test_burst_clock_and_clock_per_cycle_agree(slots):
     sources, top = top_sources(4, slots=slots, **TEST_CONTRACT)
     params = dict(kind="random", channels=4, seed=61 + slots, gap_thresh=48, stall_thresh=48,

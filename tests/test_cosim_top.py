@@ -23,12 +23,13 @@ STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 
 def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=None, pool_words=None):
     """One case (``pulses``: the scenario's own number, 30 for a farm and 40
-    otherwise, unless given); on Icarus (a cycle ~40 times slower) with half
-    the pulses: the mid-run register writes land inside them all the same."""
+    otherwise, unless given); on Icarus (a cycle ~40 times slower) with a
+    quarter of the pulses: the mid-run register writes land inside them all
+    the same."""
     if pulses is None:
         pulses = 30 if kind == "farm" else 40
     if simulator == "icarus":
-        pulses //= 2
+        pulses //= 4
     contract = dict(TEST_CONTRACT, **({} if pool_words is None else {"pool_words": pool_words}))
     sources, top = top_sources(channels, slots=slots, interpolation=interpolation, **contract)
     g, s = STALLS[stalls]
