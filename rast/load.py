@@ -6,7 +6,8 @@ channel, writes every windmill's stream into the stream pool, switches each
 channel to its stream (the block takes a switch only if the words it received
 have the stream's CRC-32), sets gains and delays, reads them back, checks
 that no switch was refused and prints the status (overflow and underflow
-flags, versions).
+flags, versions). With ``--verify`` (a bitstream whose pool is in SDRAM) it
+then reads every stream back out of the SDRAM and compares its CRC-32.
 """
 
 import os
