@@ -23,9 +23,14 @@ def divisor(clk_hz: float, baud: int) -> int:
     return d
 
 
+#: The fewest clocks per bit the receiver and transmitter take (the
+#: simulations' line runs at this, the fastest).
+MIN_DIVISOR = 4
+
+
 def _check_divisor(divisor):
-    if not isinstance(divisor, int) or isinstance(divisor, bool) or divisor < 4:
-        raise ValueError(f"UART divisor must be an integer of at least 4, not {divisor!r}")
+    if not isinstance(divisor, int) or isinstance(divisor, bool) or divisor < MIN_DIVISOR:
+        raise ValueError(f"UART divisor must be an integer of at least {MIN_DIVISOR}, not {divisor!r}")
 
 class UARTRx(wiring.Component):
     """Receiver: ``data`` is valid for the one cycle ``stb`` is high.

@@ -234,10 +234,7 @@ class ReplayModel:
         elif r.name == "POOL_CHECK":
             # the read-back of the pool from STREAM_ADDR on (the gateware's takes
             # a while, busy meanwhile; the model's answer is the one it ends with)
-            n = fv("words")
-            addr = (self.stream_addr + np.arange(n)) & self._amask
-            words = np.where(addr < self.c.pool_words, self.pool[np.minimum(addr, self.c.pool_words - 1)], 0)
-            self.check_crc = stream_crc32(words.tolist())
+            self.check_crc = stream_crc32(self._pool_run(self.stream_addr, fv("words")))
         elif r.name == "STREAM_DATA":
             self.run_crc = stream_crc32((value,), self.run_crc)
             self.run_count = min(self.run_count + 1, self._count_max)
@@ -273,11 +270,15 @@ class ReplayModel:
         return v
 
     # ---- data path -------------------------------------------------------
-    def stream_of(self, l):
-        """The active stream of channel ``l`` as the pool holds it (LENGTH words
-        from BASE, addresses modulo the address width, 0 beyond the pool)."""
-        addr = (self.base_act[l] + np.arange(self.len_act[l])) & self._amask
+    def _pool_run(self, start, n):
+        """``n`` pool words from address ``start`` on, as the gateware reads
+        them (addresses modulo the address width, 0 beyond the pool)."""
+        addr = (start + np.arange(n)) & self._amask
         return np.where(addr < self.c.pool_words, self.pool[np.minimum(addr, self.c.pool_words - 1)], 0)
+
+    def stream_of(self, l):
+        """The active stream of channel ``l`` as the pool holds it (LENGTH words from BASE)."""
+        return self._pool_run(self.base_act[l], self.len_act[l])
 
     def _words(self, l, phases):
         words, length = self._streams[l], self.len_act[l]

@@ -249,13 +249,14 @@ def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, pl
     with :func:`check_chain` (every output sample equal to the model's), the
     core initialised without error, no pool error; AssertionError otherwise."""
     from rast.gateware.sdram.generate import generate_core
+    from rast.gateware.uart import MIN_DIVISOR
     from rast.load import load_manifest
     from rast.model.fixedpoint import pack_iq
     from rast.model.hostproto import HostBridge
     from .sdram_top import SDRAMSystemTop
     if cfg.pool != "sdram":
         raise ValueError(f"sdram_load_chain needs a build with pool='sdram', not {cfg.pool!r}")
-    system = SDRAMSystemTop(generate_core(sim=True), cfg.clock_mhz * 1e6, divisor=4, timeout=400,
+    system = SDRAMSystemTop(generate_core(sim=True), cfg.clock_mhz * 1e6, divisor=MIN_DIVISOR, timeout=400,
                             **{k: v for k, v in cfg.replay_kwargs().items() if k != "pool"},
                             sample_rate_hz=round(cfg.sample_rate_mhz * 1e6))
     contract = system.system.replay.contract
@@ -298,6 +299,7 @@ def main(argv=None) -> int:
     import time
     from rast.cli import main as rast_main
     from rast.gateware.build import BuildConfig
+    from rast.gateware.uart import MIN_DIVISOR
     p = argparse.ArgumentParser(prog="python -m rast.sim.uart_chain", description=main.__doc__)
     p.add_argument("configs", nargs="+", help="farm configs (TOML), loaded in this order")
     p.add_argument("--out", required=True, help="folder for the streams and the simulation")
@@ -317,7 +319,7 @@ def main(argv=None) -> int:
     run = sdram_load_chain(cfg, dirs, out / "sim", play_between=round(args.between_ms * per_ms),
                            play_after=round(args.after_ms * per_ms))
     n = run.rtl.steps
-    print(f"{cfg.channels} channels, pool in SDRAM ({run.contract.pool_words} words), UART at 4 clocks per bit")
+    print(f"{cfg.channels} channels, pool in SDRAM ({run.contract.pool_words} words), UART at {MIN_DIVISOR} clocks per bit")
     for k, ((a, b), words) in enumerate(zip(run.loads, run.stream_words)):
         print(f"load {k}: {words} stream words, bus writes from sample {a} to {b} ({(b - a) / per_ms:.1f} ms)")
     print(f"{n} samples ({n / per_ms:.1f} ms of radar time, {n * run.contract.slots} clocks), LiteDRAM "

@@ -59,6 +59,7 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     every output sample equals the bit-exact model given the same register
     writes at the same samples."""
     from rast.gateware.top import ReplaySystem
+    from rast.gateware.uart import MIN_DIVISOR
     from rast.load import load_manifest
     from rast.model.hostproto import HostBridge
     from rast.sim.uart_chain import ModelBoard, burst_train, check_chain, host_clocks, run_chain
@@ -72,7 +73,7 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     report = build(cfg, tmp_path / "bit", quiet=True, run_tools=False)
     contract = ReplayContract.from_dict(report["build"])
     # The bitstream's replay system, its UART at the bridge's fastest divisor (4 clocks per bit).
-    system = ReplaySystem(cfg.clock_mhz * 1e6, divisor=4, timeout=400, **cfg.replay_kwargs(),
+    system = ReplaySystem(cfg.clock_mhz * 1e6, divisor=MIN_DIVISOR, timeout=400, **cfg.replay_kwargs(),
                           sample_rate_hz=contract.sample_rate_hz)
     assert system.replay.contract == contract
 
