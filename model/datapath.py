@@ -350,10 +350,11 @@ class ReplayModel:
         return the output samples (yi, yq) for all of ``xi``.
 
         Equal to calling :meth:`run` up to each write's step and then
-        :meth:`write`, but a stream word written while no channel has a switch
-        pending is applied without first running up to its step: no channel
-        can read the pool before the next CTRL write, which does run up to its
-        step. A load of many words then costs a few runs, not one per word.
+        :meth:`write`, but STREAM_ADDR, and a stream word outside the stream
+        of every pending switch, is applied without first running up to its
+        step: no channel reads such a word before a later CTRL write, which
+        does run up to its step (a playing stream's words are read at its
+        switch). A load of many words then costs a few runs, not one per word.
         """
         xi = np.asarray(xi, dtype=np.int64)
         xq = np.asarray(xq, dtype=np.int64)
@@ -369,13 +370,21 @@ class ReplayModel:
         for step, addr, value in writes:
             if step > done:
                 r = self.rmap.by_addr(addr)
-                if r is not None and (r.name not in self._UNTIMED or any(self.pending)):
+                if r is not None and (r.name not in self._UNTIMED or self._read_at_switch(r.name)):
                     run_to(min(step, len(xi)))
                     done = min(step, len(xi))
             self.write(addr, value)
         run_to(len(xi))
         empty = np.zeros(0, dtype=np.int64)
         return (np.concatenate(ys_i) if ys_i else empty), (np.concatenate(ys_q) if ys_q else empty)
+
+    def _read_at_switch(self, name):
+        """Whether a STREAM_DATA write now lands in the stream of a pending
+        switch (read from the pool when it is taken, so the write's step matters)."""
+        if name != "STREAM_DATA":
+            return False
+        a = self.stream_addr
+        return any(p and 0 <= a - self.base_next[l] < self.len_next[l] for l, p in enumerate(self.pending))
 
     def _outputs(self, n0, n1):
         """Outputs of absolute steps [n0, n1), computed over a window that

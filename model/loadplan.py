@@ -11,7 +11,7 @@ from .powerup import ChannelInit
 from .regmap import register_map, stream_crc32, RegisterMap, CTRL_ENABLE, CTRL_SWAP
 
 __all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "free_region", "stream_writes",
-           "manifest_to_register_writes", "manifest_channel_inits"]
+           "NoRoomBeside", "manifest_to_register_writes", "manifest_channel_inits"]
 
 
 def read_hex_words(path) -> list:
@@ -161,6 +161,29 @@ def free_region(in_use, length: int, pool_words: int) -> int:
                      f"(in use: {sorted(in_use)})")
 
 
+class NoRoomBeside(ValueError):
+    """The new streams do not fit in the pool beside the streams playing."""
+
+
+def _live_layout(lengths, playing, pool_words: int) -> list:
+    """Pool addresses for streams of ``lengths`` (one per channel) that leave
+    every stream in ``playing`` (per channel ``(base, length)`` or ``None``)
+    untouched, as each channel plays its old stream until it switches; the
+    new streams do not overlap each other either. Raises :class:`NoRoomBeside`."""
+    in_use = [r for r in playing if r is not None]
+    bases = []
+    for ch, n in enumerate(lengths):
+        try:
+            bases.append(free_region(in_use, n, pool_words))
+        except ValueError:
+            old = sum(n for _, n in (r for r in playing if r is not None))
+            raise NoRoomBeside(
+                f"the new streams ({sum(lengths)} words) do not fit beside the {old} words playing "
+                f"in the pool of {pool_words} words (no {n} free words for channel {ch})") from None
+        in_use.append((bases[-1], n))
+    return bases
+
+
 def stream_writes(rmap: RegisterMap, channel: int, base: int, words, increment: int) -> list:
     """Register writes ``[(addr, value), ...]`` that put a stream in the pool
     at ``base`` and name it for ``channel``'s next switch: STREAM_ADDR, every
@@ -176,7 +199,8 @@ def stream_writes(rmap: RegisterMap, channel: int, base: int, words, increment: 
 
 
 def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None = None, *,
-                                stream_dir=None, streams=None, target: str = "block") -> list:
+                                stream_dir=None, streams=None, target: str = "block",
+                                playing=None) -> list:
     """Register writes ``[(addr, value), ...]`` that load a manifest into a running block.
 
     The windmill of list position ``l`` goes to channel ``l``; the rest are
@@ -208,6 +232,15 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     disabled; the block checks the stream's CRC-32 first) and the re-enable.
     Without streams only gains and delays are written (BASE/LENGTH/PHASE_INC
     are not touched).
+
+    ``playing`` (per channel of the block, the ``(base, length)`` of the
+    stream it plays, or ``None`` when it plays none: disabled, or its stream
+    never wraps) makes the load live: no channel is disabled, the new streams
+    go where no playing stream lies (:class:`NoRoomBeside` when they do not
+    fit), and a playing channel switches at its stream's next period boundary
+    (CTRL enable + swap: it plays its old stream until then, and goes on
+    playing it if the block refuses the switch); the others switch at once.
+    A channel's gain changes when written, its delay at APPLY (the end).
     """
     contract = contract or ReplayContract(channels=len(manifest["registers"]["channels"]))
     rmap = register_map(contract)
@@ -215,7 +248,11 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     words = _load_streams(manifest, stream_dir, streams, values)
     w = []
     a = rmap.addr
-    if words is not None:
+    live = words is not None and playing is not None
+    if live:
+        playing = list(playing) + [None] * (contract.channels - len(playing))
+        bases = _live_layout([len(x) for x in words], playing, contract.pool_words)
+    elif words is not None:
         bases = pool_layout([len(x) for x in words], contract.pool_words)
         w += [(a("CTRL", ch), 0) for ch in range(contract.channels)]
     for ch, v in enumerate(values):
@@ -223,9 +260,15 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
             w += stream_writes(rmap, ch, bases[ch], words[ch], v["inc"])
         w.append((a("GAIN", ch), v["gain"]))
         w.append((a("DELAY", ch), v["delay"]))
+        enable = CTRL_ENABLE if v["enable"] else 0
+        if live and playing[ch] is not None and enable:
+            w.append((a("CTRL", ch), enable | CTRL_SWAP))  # at its period boundary
+            continue
         if words is not None:
+            if live:
+                w.append((a("CTRL", ch), 0))               # (a live load leaves it on till now)
             w.append((a("CTRL", ch), CTRL_SWAP))           # disabled: switches at once
-        w.append((a("CTRL", ch), CTRL_ENABLE if v["enable"] else 0))
+        w.append((a("CTRL", ch), enable))
     for ch in range(len(values), contract.channels):
         w.append((a("CTRL", ch), 0))
         w.append((a("GAIN", ch), 0))

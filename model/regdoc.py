@@ -92,7 +92,19 @@ switch as it was.
 Full load: `CTRL = 0` for every channel, then per channel its stream (steps
 1 and 2, the streams one after the other from address 0), `CTRL[l] = SWAP`
 (switches at once because the channel is disabled), `CTRL[l] = ENABLE`.
-`manifest_to_register_writes` produces this sequence.
+`manifest_to_register_writes` produces this sequence (`rast load --muted`).
+
+`rast load` without `--muted` loads live when it can: it polls CTRL until no
+switch is pending (then BASE and LENGTH name what each channel plays), reads
+every enabled channel's BASE, LENGTH and PHASE_INC, places each new stream
+where no playing stream lies, and switches each playing channel with
+`CTRL[l] = ENABLE|SWAP` (steps 1 to 3, not waiting for the switches); a
+channel that plays nothing (disabled, or PHASE_INC 0: it never wraps)
+switches at once. GAIN[l] takes effect when written (the old stream may
+play at the new gain until its boundary), the delays at the final APPLY.
+If the new streams do not fit beside the playing ones, it falls back to the
+full load and says why. After a refused switch it writes the old BASE,
+LENGTH and PHASE_INC back, so that the registers name what plays.
 
 Delays: write COMMON_DELAY and DELAY[l] for any channels, then `APPLY = 1`:
 all take effect in the same sample. An echo of channel l appears

@@ -1,13 +1,22 @@
 """load a `rast stream` manifest (streams, delays, gains) into a board over the UART bridge
 
 ``rast load MANIFEST_DIR --port /dev/ttyUSB0`` asks the bitstream for its
-configuration (channel count, pool words, delays, latency), disables every
-channel, writes every windmill's stream into the stream pool, switches each
-channel to its stream (the block takes a switch only if the words it received
-have the stream's CRC-32), sets gains and delays, reads them back, checks
-that no switch was refused and prints the status (overflow and underflow
-flags, versions). With ``--verify`` (a bitstream whose pool is in SDRAM) it
-then reads every stream back out of the SDRAM and compares its CRC-32.
+configuration (channel count, pool words, delays, latency), writes every
+windmill's stream into the stream pool, switches each channel to its stream
+(the block takes a switch only if the words it received have the stream's
+CRC-32), sets gains and delays, reads them back, checks that no switch was
+refused and prints the status (overflow and underflow flags, versions).
+
+The load is live when the new streams fit in the pool beside the ones
+playing: no channel is turned off, each new stream goes into free pool space
+and each playing channel switches to it at its old stream's next period
+boundary (then, as after any switch, it is silent while its word cache
+refills); a refused switch leaves the old stream playing. Otherwise
+(``--muted``, or no room) every channel is disabled first and the streams
+are written from pool address 0, as at start-up.
+
+With ``--verify`` (a bitstream whose pool is in SDRAM) it then reads every
+stream back out of the SDRAM and compares its CRC-32.
 """
 
 import os
@@ -18,10 +27,11 @@ from rast.errors import UserError, manifest_streams, read_manifest
 from rast.model.fixedpoint import INTERPOLATIONS, ReplayContract
 from rast.model.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, ProtocolError, line_bytes
 from rast.model.regmap import ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED
-from rast.model.loadplan import manifest_to_register_writes
+from rast.model.datapath import ONE
+from rast.model.loadplan import NoRoomBeside, manifest_to_register_writes
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
-           "send_writes", "read_status", "verify_pool", "stream_runs", "LoadError"]
+           "send_writes", "read_status", "verify_pool", "stream_runs", "playing_streams", "LoadError"]
 
 _GLOBAL = register_map(ReplayContract(channels=1))
 
@@ -82,11 +92,16 @@ def read_manifest_dir(manifest_dir, streams=True):
     return manifest, (manifest_streams(manifest, path.parent) if streams else None)
 
 
-def plan_writes(manifest, contract, words=None):
-    """The register writes of ``manifest`` for a block of ``contract``; a manifest
-    that does not fit raises :class:`rast.errors.UserError` (nothing is sent)."""
+def plan_writes(manifest, contract, words=None, playing=None):
+    """The register writes of ``manifest`` for a block of ``contract`` (a live
+    load beside ``playing``, as :func:`manifest_to_register_writes`; it raises
+    :class:`NoRoomBeside`); a manifest that does not fit the block raises
+    :class:`rast.errors.UserError` (nothing is sent)."""
     try:
-        return manifest_to_register_writes(manifest, contract, streams=words, target="board")
+        return manifest_to_register_writes(manifest, contract, streams=words, target="board",
+                                           playing=playing)
+    except NoRoomBeside:
+        raise
     except ValueError as error:
         raise UserError(f"the manifest does not fit the bitstream's replay block ({contract.channels} "
                         f"channel(s), pool words {contract.pool_words}, maximum delay "
@@ -94,29 +109,85 @@ def plan_writes(manifest, contract, words=None):
                         f"{contract.latency}): {error}") from None
 
 
-def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress=None, verify=False,
-                  wait=time.sleep):
-    """Write the manifest in ``manifest_dir`` into the block; verify by reading back
-    the registers (and with ``verify`` the streams, out of an SDRAM pool:
-    :func:`verify_pool`, ``wait`` as there).
+#: The longest ``rast load`` waits for switches an earlier load left pending
+#: (each is taken at its old stream's period boundary) before a live load.
+PENDING_WAIT_S = 30.0
 
-    Returns a dict of what was done. Raises :class:`rast.errors.UserError` for a
+
+def playing_streams(bridge, contract, wait=time.sleep, timeout_s=PENDING_WAIT_S):
+    """``(regions, switch_s)``: per channel ``(base, length, phase increment)``
+    of the stream the block plays, or ``None`` (disabled, or a phase
+    increment of 0: it would never reach a period boundary to switch at), and
+    the longest period among them (the longest a live switch waits). Waits
+    first, polling CTRL, until no switch is pending (the registers then name
+    the streams playing); ``(None, None)`` if one still is after ``timeout_s``."""
+    a = register_map(contract).addr
+    waited = 0.0
+    while True:
+        ctrl = [bridge.read(a("CTRL", ch)) for ch in range(contract.channels)]
+        if not any(c >> 1 & 1 for c in ctrl):
+            break
+        if waited >= timeout_s:
+            return None, None
+        wait(0.05)
+        waited += 0.05
+    regions, switch_s = [], 0.0
+    for ch in range(contract.channels):
+        inc = bridge.read(a("PHASE_INC", ch)) if ctrl[ch] & CTRL_ENABLE else 0
+        if not inc:
+            regions.append(None)
+            continue
+        regions.append((bridge.read(a("BASE", ch)), bridge.read(a("LENGTH", ch)), inc))
+        if contract.sample_rate_hz:
+            switch_s = max(switch_s, regions[-1][1] * ONE / inc / contract.sample_rate_hz)
+    return regions, switch_s
+
+
+def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress=None, verify=False,
+                  wait=time.sleep, live=True):
+    """Write the manifest in ``manifest_dir`` into the block, live (beside the
+    streams playing, :func:`playing_streams`) when ``live`` and they fit, else
+    muted; verify by reading back the registers (and with ``verify`` the
+    streams, out of an SDRAM pool: :func:`verify_pool`, ``wait`` as there).
+
+    Returns a dict of what was done (``live``: whether the load was, and if
+    not, ``muted_why``; ``switch_s``: the longest a playing channel may take
+    to reach its switch). Raises :class:`rast.errors.UserError` for a
     missing, malformed or unfitting manifest (before any write) and
-    :class:`LoadError` on a read-back mismatch."""
+    :class:`LoadError` on a read-back mismatch or a refused switch."""
     manifest, words = read_manifest_dir(manifest_dir, streams)
     contract = contract or read_contract(bridge)
     if verify:
         _require_read_back(contract)                 # before anything is written
-    writes = plan_writes(manifest, contract, words)
-    res = send_writes(bridge, writes, contract, progress, channels=len(manifest["registers"]["channels"]))
+    writes = plan_writes(manifest, contract, words)  # refuses a manifest that does not fit at all
+    playing, why, switch_s = None, "as --muted asks", 0.0
+    if words is not None and live:
+        playing, switch_s = playing_streams(bridge, contract, wait)
+        why = (f"a switch of an earlier load was still pending after {PENDING_WAIT_S:g} s"
+               if playing is None else None)
+    if playing is not None:
+        try:
+            writes = plan_writes(manifest, contract, words, [r and r[:2] for r in playing])
+        except NoRoomBeside as no_room:
+            playing, why = None, str(no_room)
+    res = send_writes(bridge, writes, contract, progress, channels=len(manifest["registers"]["channels"]),
+                      playing=playing)
     res["line_bytes"] = line_bytes(writes)
+    if words is not None:
+        res["live"] = playing is not None
+        res["muted_why"] = why
+        res["switch_s"] = switch_s if playing is not None else 0.0
     if verify:
         res.update(verify_pool(bridge, contract, writes, wait))
     return res
 
 
-def send_writes(bridge, writes, contract, progress=None, *, channels=None):
-    """Send ``writes`` and read every written register back (:class:`LoadError` on a mismatch)."""
+def send_writes(bridge, writes, contract, progress=None, *, channels=None, playing=None):
+    """Send ``writes`` and read every written register back (:class:`LoadError` on a mismatch,
+    or on a refused switch). In a live load (``playing``: per channel its old stream's
+    ``(base, length, increment)`` or ``None``) a refused channel goes on with its old
+    stream, and BASE, LENGTH and PHASE_INC are written back to name it (what the next
+    live load reads); otherwise it is disabled, as its old words may be overwritten."""
     rmap = register_map(contract)
     t0 = time.monotonic()
     bridge.write_many(writes, progress)
@@ -132,12 +203,23 @@ def send_writes(bridge, writes, contract, progress=None, *, channels=None):
     # every switch asked for was taken: the words the block received had the CRC-32 sent
     crc_channel = {rmap.addr("CRC", ch): ch for ch in range(contract.channels)}
     crc_written = {crc_channel[a]: v for a, v in writes if a in crc_channel}
-    refused = [f"channel {ch} (CRC-32 {crc:#010x})" for ch, crc in sorted(crc_written.items())
-               if bridge.read(rmap.addr("CTRL", ch)) & CTRL_REJECTED]
+    refused_channels = [ch for ch in sorted(crc_written) if bridge.read(rmap.addr("CTRL", ch)) & CTRL_REJECTED]
+    refused = [f"channel {ch} (CRC-32 {crc_written[ch]:#010x})" for ch in refused_channels]
     if refused:
+        a = rmap.addr
+        for ch in refused_channels:
+            old = playing[ch] if playing is not None else None
+            if old is None:
+                bridge.write(a("CTRL", ch), 0)
+            else:
+                bridge.write_many([(a("BASE", ch), old[0]), (a("LENGTH", ch), old[1]),
+                                   (a("PHASE_INC", ch), old[2])])
         raise LoadError("The block refused the stream of " + ", ".join(refused) + ": the words it "
-                        "received differ from the stream (a word lost or damaged on the line); those "
-                        "channels play their old streams. Load again.")
+                        "received differ from the stream (a word lost or damaged on the line); "
+                        + ("those channels go on as before the load, with their old streams"
+                           if playing is not None else
+                           "those channels are off (their old streams may be overwritten)")
+                        + ". Load again.")
     n_words = sum(1 for a, _ in writes if a == rmap.addr("STREAM_DATA"))
     return {"writes": len(writes), "stream_words": n_words, "seconds": dt, "channels": channels}
 
@@ -227,6 +309,10 @@ def add_arguments(p):
     p.add_argument("--verify", action="store_true",
                    help="then read every stream back out of the SDRAM and compare its CRC-32 (an "
                         "SDRAM bitstream's; a bring-up check of the SDRAM clock phase)")
+    p.add_argument("--muted", action="store_true",
+                   help="disable every channel during the load and write the streams from pool "
+                        "address 0 (the default is live when the new streams fit beside the playing "
+                        "ones: each channel switches at its old stream's period boundary)")
     p.add_argument("--status", action="store_true", help="only read and print the status")
 
 
@@ -267,12 +353,20 @@ def run(args) -> int:
                     if done == total or done % 2048 == 0:
                         print(f"\r  {done}/{total} writes", end="", flush=True)
                 res = load_manifest(bridge, args.manifest_dir, contract, streams=not args.no_streams,
-                                    progress=progress, verify=args.verify)
+                                    progress=progress, verify=args.verify, live=not args.muted)
                 rate = res["stream_words"] / res["seconds"] if res["seconds"] > 0 else 0.0
                 print(f"\nloaded {res['channels']} windmill(s), {res['stream_words']} stream words "
                       f"in {res['seconds']:.1f} s ({rate / 1e3:.1f} k words/s, "
                       f"{res['line_bytes'] * 10 / args.baud:.1f} s of line time at {args.baud} baud); "
                       f"read-back matches, every stream's CRC-32 checked by the block")
+                if res.get("live"):
+                    refill = contract.refill_samples
+                    print(f"live: no channel turned off; each playing channel switches at its old "
+                          f"stream's next period boundary, within {res['switch_s']:.2f} s, then refills "
+                          f"its word cache for {refill} samples"
+                          + (f" ({refill / contract.sample_rate_hz * 1e3:.2f} ms)" if contract.sample_rate_hz else ""))
+                elif "live" in res:
+                    print(f"muted: every channel was off during the load ({res['muted_why']})")
                 if args.verify:
                     print(f"read {res['verified_words']} stream words back out of the SDRAM in "
                           f"{res['verify_seconds']:.1f} s: every stream's CRC-32 matches")

@@ -234,6 +234,7 @@ class SDRAMLoadChain:
     contract: object           # the system's ReplayContract
     loads: list                # per load: (first, last) step of its bus writes
     stream_words: list         # per load: stream words rast load sent
+    live: list                 # per load: whether rast load loaded it live (no channel muted)
 
 
 def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, play_after: int = 80_000,
@@ -266,13 +267,14 @@ def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, pl
     def wait(seconds):                  # the host waits: the line idles
         board.idle(-(-round(seconds * cfg.clock_mhz * 1e6) // system.divisor))
 
-    counts, words = [], []
+    counts, words, live = [], [], []
     for k, d in enumerate(manifest_dirs):
         if k:
             board.idle(play_between * contract.slots // system.divisor)
         verify = verify_last and k == len(manifest_dirs) - 1
         res = load_manifest(bridge, d, verify=verify, wait=wait)          # rast load's own code
         words.append(res["stream_words"])
+        live.append(res["live"])
         counts.append(len(board.applied))
     xi, xq = burst_train()
     n_steps = (SDRAM_INIT_STEPS + -(-host_clocks(board.sent, system.divisor) // contract.slots)
@@ -287,7 +289,7 @@ def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, pl
         raise AssertionError("the SDRAM pool lost a request or a write (pool_error)")
     y = check_chain(rtl, board, contract, xi, xq)
     loads = [(rtl.writes[a][0], rtl.writes[b - 1][0]) for a, b in zip([0] + counts[:-1], counts)]
-    return SDRAMLoadChain(rtl, y, contract, loads, words)
+    return SDRAMLoadChain(rtl, y, contract, loads, words, live)
 
 
 def main(argv=None) -> int:
@@ -320,8 +322,9 @@ def main(argv=None) -> int:
                            play_after=round(args.after_ms * per_ms))
     n = run.rtl.steps
     print(f"{cfg.channels} channels, pool in SDRAM ({run.contract.pool_words} words), UART at {MIN_DIVISOR} clocks per bit")
-    for k, ((a, b), words) in enumerate(zip(run.loads, run.stream_words)):
-        print(f"load {k}: {words} stream words, bus writes from sample {a} to {b} ({(b - a) / per_ms:.1f} ms)")
+    for k, ((a, b), words, live) in enumerate(zip(run.loads, run.stream_words, run.live)):
+        print(f"load {k}: {words} stream words, bus writes from sample {a} to {b} ({(b - a) / per_ms:.1f} ms), "
+              f"{'live' if live else 'muted'}")
     print(f"{n} samples ({n / per_ms:.1f} ms of radar time, {n * run.contract.slots} clocks), LiteDRAM "
           f"initialised at sample {run.rtl.sums['init_step']}, no pool error; every output sample equal to "
           f"the model's; {time.monotonic() - t0:.0f} s")

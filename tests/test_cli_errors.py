@@ -470,6 +470,23 @@ def test_load_verify_on_a_block_ram_bitstream_writes_nothing(tmp_path, capsys, m
     assert board.applied == []
 
 
+def test_load_says_whether_it_was_live_or_muted(tmp_path, capsys, monkeypatch):
+    board = _model_port(monkeypatch, ReplayContract(channels=2, pool_words=64, max_delay=120, max_tap=14,
+                                                    sample_rate_hz=1_000_000))
+    write_manifest(tmp_path / "a", lengths=(8, 9), delays=(100, 102), increment=1 << 20)
+    write_manifest(tmp_path / "b", lengths=(10, 8), delays=(100, 102), increment=1 << 20)
+    assert main(["load", str(tmp_path / "a"), "--port", "fake"]) == 0
+    assert main(["load", str(tmp_path / "b"), "--port", "fake"]) == 0
+    out = capsys.readouterr().out
+    # the second load went beside the first, whose longest period is 9 words at 2**-12 word a sample
+    assert "live: no channel turned off; each playing channel switches at its old stream's next " \
+           "period boundary, within 0.04 s, then refills its word cache for" in out
+    assert board.model.pending == [1, 1]
+    assert main(["load", str(tmp_path / "a"), "--port", "fake", "--muted"]) == 0
+    assert "muted: every channel was off during the load (as --muted asks)" in capsys.readouterr().out
+    assert board.model.pending == [0, 0] and board.model.base_act == [0, 8]
+
+
 # ------------------------------------------------------------ the executable
 
 def test_executable_reports_without_traceback(tmp_path):

@@ -1,7 +1,7 @@
 """`rast load` through the UART into the SDRAM: the SDRAM bitstream's replay system (UART bridge
 + engine with its pool in SDRAM) on LiteDRAM's simulation core, in Verilator, samples streaming
-all the while; then a second load (another farm) while the first plays, read back out of the SDRAM
-(`rast load --verify`). Every output sample equal to the bit-exact model given the same register
+all the while; then a second load (another farm) while the first plays, live (the first farm's
+echoes go on during it), read back out of the SDRAM (`rast load --verify`). Every output sample equal to the bit-exact model given the same register
 writes at the same samples, every answer of the bridge (the read-back's CRC-32s among them) the
 protocol's."""
 
@@ -56,6 +56,9 @@ def test_rast_load_through_the_uart_into_sdram_and_a_reload_while_playing(tmp_pa
     assert run.stream_words == [sum(len(w) for w in read_manifest_dir(d)[1]) for d in (first, second)]
     (_, first_to), (second_from, second_to) = run.loads
     assert second_from - first_to >= 20_000 and second_to < run.rtl.tail_from
-    # both farms played: the first's echoes between the two loads, the second's in the tail
+    # both farms played: the first's echoes between the two loads and, the second load being
+    # live (nothing muted, the new stream beside the old), during it; the second's in the tail
+    assert run.live == [True, True]
     assert np.count_nonzero(run.y[:, first_to:second_from].any(axis=0)) > 0.1 * (second_from - first_to)
+    assert np.count_nonzero(run.y[:, second_from:second_to].any(axis=0)) > 0.1 * (second_to - second_from)
     assert np.count_nonzero(run.rtl.tail.any(axis=1)) > 0.1 * len(run.rtl.tail)
