@@ -219,7 +219,8 @@ class RegisterFile(wiring.Component):
         # clocks of staging (M >= 2) the address compares and the clamps'
         # comparators are a clock earlier still, in ``decoded`` (the
         # 10-channel build's critical path was op -> compare -> clamp ->
-        # LENGTH).
+        # LENGTH); with three (M >= 3) they read the bus from a register
+        # (stage 1), not straight from the host bridge's.
         wd = self._write_delay
         before = stage[wd - 1]
 

@@ -384,9 +384,12 @@ def visit_cycles(slots: int) -> int:
 
 def write_staging(slots: int) -> int:
     """Clocks between a host write taken from the bus and the clock in which
-    it lands (the one before the pipelines' period start): 1 at M = 1, else 2
-    (the copies per pipeline are registered, then the decode)."""
-    return min(2, slots)
+    it lands (the one before the pipelines' period start): 1 at M = 1, 2 at
+    M = 2 (the decode, then the copies per pipeline, each registered), else 3
+    (the bus first in a register of the register file's own: the bridge's
+    data register sat far from the decode and the LENGTH clamp in the SDRAM
+    build, 7.4 ns of routing into the clamp, docs/bitstream.md)."""
+    return min(3, slots)
 
 
 def tree_levels(pipelines: int) -> int:
