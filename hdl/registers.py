@@ -238,23 +238,29 @@ class RegisterFile(wiring.Component):
             m.d.sync += s.eq(value)
             return s
 
-        def clamp(f):
-            def fn(op):
-                v = op.data[f.lsb:f.lsb + f.width]
-                lo, hi = f.clamp
-                if hi < (1 << f.width) - 1:
-                    v = Mux(v > hi, hi, v)
-                if lo > 0:
-                    v = Mux(v < lo, lo, v)
-                return v
-            return fn
+        def clamped_value(reg_name, f):
+            """The field's value from the access in stage wd - 1, clamped: the
+            comparisons a clock earlier, in ``decoded`` registers, so that the
+            clock into the landing register holds only the selection (one
+            clock for both was the SDRAM build's critical path, op1 ->
+            compare -> select -> LENGTH, docs/bitstream.md)."""
+            lo, hi = f.clamp
+            v = before.data[f.lsb:f.lsb + f.width]
+            name = f"{reg_name.lower()}_{f.name}"
+            if hi < (1 << f.width) - 1:
+                above = decoded(lambda op: op.data[f.lsb:f.lsb + f.width] > hi, 1, f"above_{name}")
+                v = Mux(above, hi, v)
+            if lo > 0:
+                below = decoded(lambda op: op.data[f.lsb:f.lsb + f.width] < lo, 1, f"below_{name}")
+                v = Mux(below, lo, v)
+            return v
 
         apply_addr = rmap.reg("APPLY").addr
         strobe = {}           # register address -> write strobe, landing
         land_data = {}        # channel (None: global) -> the landing data
         land_field = {}       # (register address, field name) -> landing value
         land_apply = {}       # channel (None: global) -> APPLY (bit 0) landing
-        clamped = {}          # field -> its clamped value, one clock before landing
+        clamped = {}          # field -> its clamped value, in the clock before landing
         units = [(None, [r for r in rmap.registers if r.channel is None])]
         units += [(g, [r for r in rmap.registers if r.channel in members])
                   for g, members in enumerate(self._groups)]
@@ -287,7 +293,7 @@ class RegisterFile(wiring.Component):
                         continue
                     key = (r.name, f.name)
                     if key not in clamped:
-                        clamped[key] = decoded(clamp(f), f.width, f"clamp_{r.name.lower()}_{f.name}")
+                        clamped[key] = clamped_value(r.name, f)
                     if key not in group_clamped:
                         group_clamped[key] = landing(Mux(hit, clamped[key], 0), f.width,
                                                      f"land_{r.name.lower()}_{f.name}_{tag}")
