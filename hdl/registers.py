@@ -245,14 +245,13 @@ class RegisterFile(wiring.Component):
             clock for both was the SDRAM build's critical path, op1 ->
             compare -> select -> LENGTH, docs/bitstream.md)."""
             lo, hi = f.clamp
-            v = before.data[f.lsb:f.lsb + f.width]
+            field = lambda op: op.data[f.lsb:f.lsb + f.width]
             name = f"{reg_name.lower()}_{f.name}"
+            v = field(before)
             if hi < (1 << f.width) - 1:
-                above = decoded(lambda op: op.data[f.lsb:f.lsb + f.width] > hi, 1, f"above_{name}")
-                v = Mux(above, hi, v)
+                v = Mux(decoded(lambda op: field(op) > hi, 1, f"above_{name}"), hi, v)
             if lo > 0:
-                below = decoded(lambda op: op.data[f.lsb:f.lsb + f.width] < lo, 1, f"below_{name}")
-                v = Mux(below, lo, v)
+                v = Mux(decoded(lambda op: field(op) < lo, 1, f"below_{name}"), lo, v)
             return v
 
         apply_addr = rmap.reg("APPLY").addr

@@ -176,7 +176,7 @@ def _live_layout(lengths, playing, pool_words: int) -> list:
         try:
             bases.append(free_region(in_use, n, pool_words))
         except ValueError:
-            old = sum(n for _, n in (r for r in playing if r is not None))
+            old = sum(r[1] for r in playing if r is not None)
             raise NoRoomBeside(
                 f"the new streams ({sum(lengths)} words) do not fit beside the {old} words playing "
                 f"in the pool of {pool_words} words (no {n} free words for channel {ch})") from None
