@@ -90,7 +90,7 @@ class ComplexMultiplier(wiring.Component):
             m.submodules[f"mul_{name}"] = unit
             m.d.comb += [unit.en.eq(en), unit.a.eq(x), unit.b.eq(y)]
             # the product again in a fabric register, next to the adders
-            q = Signal.like(unit.o, name=f"p_{name}")
+            q = Signal.like(unit.o, name=f"p_{name}", reset_less=True)
             with m.If(en):
                 m.d.sync += q.eq(unit.o)
             return q
@@ -100,18 +100,19 @@ class ComplexMultiplier(wiring.Component):
             ri, ir = mul("ri", a.re, b.im), mul("ir", a.im, b.re)
             re_v, im_v = rr - ii, ri + ir
         else:
-            s1 = Signal(signed(self._a_width + 1))   # a.re + a.im
-            s2 = Signal(signed(self._b_width + 1))   # b.im - b.re
-            s3 = Signal(signed(self._b_width + 1))   # b.re + b.im
-            ar = Signal(signed(self._a_width)); ai = Signal(signed(self._a_width))
-            br = Signal(signed(self._b_width))
+            s1 = Signal(signed(self._a_width + 1), reset_less=True)   # a.re + a.im
+            s2 = Signal(signed(self._b_width + 1), reset_less=True)   # b.im - b.re
+            s3 = Signal(signed(self._b_width + 1), reset_less=True)   # b.re + b.im
+            ar = Signal(signed(self._a_width), reset_less=True)
+            ai = Signal(signed(self._a_width), reset_less=True)
+            br = Signal(signed(self._b_width), reset_less=True)
             with m.If(en):
                 m.d.sync += [s1.eq(a.re + a.im), s2.eq(b.im - b.re), s3.eq(b.re + b.im),
                              ar.eq(a.re), ai.eq(a.im), br.eq(b.re)]
             k1, k2, k3 = mul("k1", br, s1), mul("k2", ar, s2), mul("k3", ai, s3)
             re_v, im_v = k1 - k3, k1 + k2
-        re = Signal(signed(self._full_width), name="re_full")
-        im = Signal(signed(self._full_width), name="im_full")
+        re = Signal(signed(self._full_width), name="re_full", reset_less=True)
+        im = Signal(signed(self._full_width), name="im_full", reset_less=True)
         with m.If(en):
             m.d.sync += [re.eq(re_v), im.eq(im_v),
                          self.o.re.eq((re + half) >> self._shift),

@@ -233,7 +233,7 @@ class WindFarmReplay(wiring.Component):
         m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
         assert common.depth == c.common_depth and common.latency == 3 and ACCEPT_LAG == 1
         cnt = Signal(range(c.common_depth))
-        x_q = Signal(2 * INPUT_WIDTH)
+        x_q = Signal(2 * INPUT_WIDTH, reset_less=True)         # data: not reset (channel_pipeline)
         w_en = Signal()
         n_q = Signal.like(cnt)
         m.d.sync += [x_q.eq(self.i.payload.as_value()), w_en.eq(accept), n_q.eq(cnt)]
@@ -297,7 +297,7 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += [pool.r_valid.eq(req_valid), pool.r_addr.eq(req_addr), pool.r_tag.eq(req_tag)]
         fill_valid = Signal()
         fill_tag = Signal(pool_tag)
-        fill_data = Signal.like(pool.d_data)
+        fill_data = Signal.like(pool.d_data, reset_less=True)
         m.d.sync += [fill_valid.eq(pool.d_valid), fill_tag.eq(pool.d_tag), fill_data.eq(pool.d_data)]
         # grant (visit) -> pipeline's request register -> this register -> the
         # pool -> fill_* -> the pipeline's fill register -> the cache
@@ -348,22 +348,22 @@ class WindFarmReplay(wiring.Component):
             nxt = []
             for j in range(0, len(level), 2):
                 pair = level[j:j + 2]
-                s_ = Signal(IQ(SW), name=f"tree{depth}_{j // 2}")
+                s_ = Signal(IQ(SW), name=f"tree{depth}_{j // 2}", reset_less=True)
                 m.d.sync += [s_.re.eq(sum(v.re for v in pair)), s_.im.eq(sum(v.im for v in pair))]
                 nxt.append(s_)
             level, depth = nxt, depth + 1
         total = level[0]
         lo, hi = -(1 << (OUTPUT_WIDTH - 1)), (1 << (OUTPUT_WIDTH - 1)) - 1
-        y = Signal(IQ(OUTPUT_WIDTH))
+        y = Signal(IQ(OUTPUT_WIDTH), reset_less=True)
         sat = []
         for part in ("re", "im"):
-            v = Signal(signed(SW), name=f"sum_{part}")
-            over = Signal(name=f"over_{part}")
-            under = Signal(name=f"under_{part}")
+            v = Signal(signed(SW), name=f"sum_{part}", reset_less=True)
+            over = Signal(name=f"over_{part}", reset_less=True)
+            under = Signal(name=f"under_{part}", reset_less=True)
             t = getattr(total, part)
             m.d.sync += [v.eq(t), over.eq(t > hi), under.eq(t < lo)]
             m.d.sync += getattr(y, part).eq(Mux(over, hi, Mux(under, lo, v)))
-            s_flag = Signal(name=f"sat_{part}")
+            s_flag = Signal(name=f"sat_{part}", reset_less=True)
             m.d.sync += s_flag.eq(over | under)
             sat.append(s_flag)
         out_valid = accept

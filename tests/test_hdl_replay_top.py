@@ -399,3 +399,51 @@ def test_sixteen_channels(slots):
     T = dut.contract.refill_samples + 160         # past the caches' first fill
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
     check(dut, inits, xi, xq, valid=(1, 1, 0), name="N=16")
+
+
+@pytest.mark.parametrize("slots, interpolation", [(1, "hold"), (3, "hold"), (1, "fir"), (3, "fir")])
+def test_a_reset_mid_run_drops_every_sample_in_flight(slots, interpolation):
+    """The data registers are not reset (rast.hdl.channel_pipeline): a reset
+    in the middle of a run must still give, as at power-up, only muted
+    (zero) samples for the refill after it, nothing left over from before."""
+    from amaranth.hdl import Module, Signal, ResetInserter
+    from amaranth.sim import Simulator
+    rng = np.random.default_rng(slots * 7 + len(interpolation))
+    inits = rand_inits(rng, 3)
+    dut = WindFarmReplay(3, slots=slots, init=inits, **{**KW, "interpolation": interpolation})
+    R = dut.contract.refill_samples
+    rst = Signal()
+    top = Module()
+    top.submodules.dut = ResetInserter(rst)(dut)
+    before, T_after = R + 120, R + 60
+    outputs = []                       # (taken after the reset, I, Q)
+
+    async def bench(ctx):
+        n_in, reset_done = 0, False
+        ctx.set(dut.o.ready, 1)
+        for _ in range((before + T_after) * slots * 4 + 400):
+            if reset_done and sum(a for a, _, _ in outputs) >= T_after:
+                return
+            pulse = n_in == before and not reset_done
+            ctx.set(rst, pulse)
+            ctx.set(dut.i.valid, 0 if pulse else 1)
+            ctx.set(dut.i.payload.re, int(rng.integers(-32768, 32768)))
+            ctx.set(dut.i.payload.im, int(rng.integers(-32768, 32768)))
+            taken = not pulse and ctx.get(dut.i.ready)
+            if not pulse and ctx.get(dut.o.valid):
+                outputs.append((reset_done, ctx.get(dut.o.payload.re), ctx.get(dut.o.payload.im)))
+            await ctx.tick()
+            reset_done |= pulse
+            n_in += taken
+        raise AssertionError("the engine did not give its samples after the reset")
+
+    sim = Simulator(top)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    old = np.array([(i, q) for after, i, q in outputs if not after])
+    new = np.array([(i, q) for after, i, q in outputs if after])
+    assert np.count_nonzero(old[R:]) > 0, "the channels should play before the reset"
+    assert np.count_nonzero(new[:R]) == 0, (f"after the reset, sample {np.nonzero(new[:R])[0][0]} of the "
+                                            f"{R}-sample refill is not zero: left over from before the reset")
+    assert np.count_nonzero(new[R:]) > 0, "the channels should play again after the refill"
