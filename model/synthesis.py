@@ -73,6 +73,11 @@ MIN_GRID_STEP = 8
 MIN_FEATURE_GRID_STEPS = 8
 #: Output samples per interpolated block (one task of the pool; a few MB, cache-sized).
 SAMPLES_PER_BLOCK = 1 << 18
+#: Rows (grid intervals) of every BLAS product of the interpolation, the last one
+#: padded. OpenBLAS's last bits of a row depend on the product's shape (seen on
+#: an AVX-512 machine: products of 64 to 1024 rows agreed, 1472-row ones not),
+#: so only products of one shape make the values independent of the block size.
+BLAS_ROWS = 128
 #: Samples per directly evaluated piece, at most (a whole number of the physics' chunks).
 SAMPLES_PER_PIECE = 64 * CHUNK_SAMPLES
 
@@ -311,11 +316,16 @@ def synthesise_period(windmill: Windmill, length: int, wavelength_m: float, *,
     windows = np.lib.stride_tricks.sliding_window_view(grid[offset:].view(np.float64), 2 * TAPS)[::2]
 
     def block(start, stop):
-        np.matmul(np.ascontiguousarray(windows[start:stop]), pairs, out=out_rows[start:stop])
+        for j in range(start, stop, BLAS_ROWS):
+            k = j + BLAS_ROWS
+            if k <= rows:
+                np.matmul(np.ascontiguousarray(windows[j:k]), pairs, out=out_rows[j:k])
+            else:                                   # the last rows, padded to BLAS_ROWS
+                padded = np.zeros((BLAS_ROWS, 2 * TAPS))
+                padded[:rows - j] = windows[j:rows]
+                out_rows[j:] = (padded @ pairs)[:rows - j]
 
-    # Whole multiples of 64 rows: BLAS computes a block's last few rows with another
-    # kernel (last bits), so the values then do not depend on the block size.
-    step = max(64, SAMPLES_PER_BLOCK // h // 64 * 64)
+    step = max(1, SAMPLES_PER_BLOCK // h // BLAS_ROWS) * BLAS_ROWS
     _in_order(pool, [(block, (j, min(rows, j + step)), j * h, min(length, (j + step) * h))
                      for j in range(0, rows, step)], finished(out))
     return out[:length], Synthesis("grid", h, count, check_dbc, "")
