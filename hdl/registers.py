@@ -37,12 +37,20 @@ def crc32_step(crc, bits):
 
 def crc_clocks(slots: int) -> int:
     """Clocks the stream CRC takes per word: 4 (a byte a clock) when writes
-    land at least 5 clocks apart (M >= 5), else 2 or 1, so that the CRC is
-    complete before the next write lands (and, at M >= 2, a clock before it,
-    for the registered comparison). A byte a clock keeps each step's XORs
-    sparse (one register bit and a few of the byte's), where a word a clock
-    is a dense network of the register in its own loop."""
-    return 4 if slots >= 5 else 2 if slots >= 3 else 1
+    land at least 6 clocks apart (M >= 6), 2 at M = 4 and 5, else 1, so that
+    the CRC and the SWAP check's registered comparison (``match_stages``)
+    are complete when the next write lands. A byte a clock keeps each step's
+    XORs sparse (one register bit and a few of the byte's), where a word a
+    clock is a dense network of the register in its own loop."""
+    return 4 if slots >= 6 else 2 if slots >= 4 else 1
+
+
+def match_stages(slots: int) -> int:
+    """Registered levels of the SWAP check (the run's start, words and CRC
+    against a channel's BASE, LENGTH and CRC): none at M = 1, one at M = 2,
+    two from M = 3 (the comparisons, then their AND: about 60 bits compared
+    in one clock was a 200 MHz build's worst path, 7.2 ns, docs/bitstream.md)."""
+    return min(2, slots - 1)
 
 
 class BusSignature(wiring.Signature):
@@ -319,6 +327,7 @@ class RegisterFile(wiring.Component):
         # The CRC takes crc_clocks(M) clocks per word, 32 / k bits a clock: the
         # first part in the landing clock, the rest from ``crc_rest``.
         k = crc_clocks(c.slots)
+        assert k + match_stages(c.slots) <= c.slots, "the SWAP check would see a CRC not yet complete"
         b = 32 // k
         crc_rest = Signal(32 - b, name="run_crc_rest")
         crc_left = Signal(range(k), name="run_crc_left")
@@ -348,12 +357,17 @@ class RegisterFile(wiring.Component):
                 m.d.sync += tap.eq(storage[("DELAY", l, "delay")])
             # A CTRL write leaves a command for the channel's next visit; the
             # engine consumes it when it reads the channel (cmd_ack).
-            match = ((run_start == storage[("BASE", l, "base")])
-                     & (run_count == storage[("LENGTH", l, "length")])
-                     & (~run_crc == storage[("CRC", l, "crc")]))
-            if c.slots > 1:
-                # landings are M >= 2 clocks apart: compare a clock early, in a
-                # register, off the path into the command
+            # landings are M clocks apart: the check in match_stages(M)
+            # registered levels, off the path into the command
+            match = Cat(run_start == storage[("BASE", l, "base")],
+                        run_count == storage[("LENGTH", l, "length")],
+                        ~run_crc == storage[("CRC", l, "crc")])
+            if match_stages(c.slots) == 2:
+                parts = Signal(3, name=f"match_parts{l}")
+                m.d.sync += parts.eq(match)
+                match = parts
+            match = match.all()
+            if match_stages(c.slots) >= 1:
                 match_q = Signal(name=f"match{l}")
                 m.d.sync += match_q.eq(match)
                 match = match_q

@@ -447,3 +447,29 @@ def test_a_reset_mid_run_drops_every_sample_in_flight(slots, interpolation):
     assert np.count_nonzero(new[:R]) == 0, (f"after the reset, sample {np.nonzero(new[:R])[0][0]} of the "
                                             f"{R}-sample refill is not zero: left over from before the reset")
     assert np.count_nonzero(new[R:]) > 0, "the channels should play again after the refill"
+
+
+@pytest.mark.parametrize("slots", [1, 2, 3, 4, 5, 6, 10])
+def test_a_swap_right_after_the_last_stream_word_is_taken(slots):
+    """CTRL's SWAP written just after the stream's last word (the two land M
+    clocks apart, the closest the bus allows): the CRC of that word
+    (``crc_clocks``) and the registered check (``match_stages``) are
+    complete in time, so the intact stream is taken, not refused."""
+    length_old, length_new = 5, 4
+    old = pack_iq([1000 * (k + 1) for k in range(length_old)], [0] * length_old)
+    new = [int(w) for w in pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)]
+    inits = [ChannelInit(tuple(int(w) for w in old), 3 << 30, 1 << 16, 0, True)]
+    dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
+    a = dut.register_map.addr
+    R = dut.contract.refill_samples
+    T = 2 * R + 120
+    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    k = R + 10
+    ops = [(k, "w", a("BASE", 0), 100), (k, "w", a("LENGTH", 0), length_new),
+           (k, "w", a("PHASE_INC", 0), 1 << 31), (k, "w", a("CRC", 0), stream_crc32(new)),
+           (k, "w", a("STREAM_ADDR"), 100)] + [(k, "w", a("STREAM_DATA"), w) for w in new]
+    ops += [(k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "r", a("CTRL", 0), 0)]
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, name=f"swap after the last word, M = {slots}")
+    reads = [v for _, kind, _, v in done if kind == "r"]
+    assert reads[0] in (CTRL_ENABLE | CTRL_SWAP, CTRL_ENABLE | CTRL_BANK), f"CTRL reads {reads[0]:#x}"
+    assert set(hi[dut.latency + k + 2 * R + 10:].tolist()) == {-250, -500, -750, -1000}
