@@ -227,6 +227,17 @@ def test_switch_at_period_boundary(slots):
     assert set(out[first_new:].tolist()) == {-250, -500, -750}
 
 
+def reload_bench(slots):
+    """One channel playing words 1000..5000 (I) at 0.75 words a sample, and a
+    new 4-word stream (-500..-2000, 7) to load: the engine, the new words,
+    the register addresses and the refill."""
+    old = pack_iq([1000 * (k + 1) for k in range(5)], [0] * 5)
+    new = [int(w) for w in pack_iq([-500 * (k + 1) for k in range(4)], [7] * 4)]
+    inits = [ChannelInit(tuple(int(w) for w in old), 3 << 30, 1 << 16, 0, True)]
+    dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
+    return dut, inits, new, dut.register_map.addr, dut.contract.refill_samples
+
+
 @pytest.mark.parametrize("slots, damage", [(1, "bit"), (3, "bit"), (5, "bit"), (1, "lost word"), (3, "moved"),
                                            (10, "moved")])
 def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, damage):
@@ -235,13 +246,8 @@ def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, 
     SWAP: CTRL reads rejected and no pending switch, the old stream plays on,
     STREAM_CRC/STREAM_COUNT say what arrived (zlib's CRC of it). Sent again
     intact, the stream is taken and rejected clears. Gateware and model equal."""
-    length_old, length_new = 5, 4
-    old = pack_iq([1000 * (k + 1) for k in range(length_old)], [0] * length_old)
-    new = [int(w) for w in pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)]
-    inits = [ChannelInit(tuple(int(w) for w in old), 3 << 30, 1 << 16, 0, True)]
-    dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
-    a = dut.register_map.addr
-    R = dut.contract.refill_samples
+    dut, inits, new, a, R = reload_bench(slots)
+    length_new = len(new)
     T = 3 * R + 200
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     sent, start = list(new), 100
@@ -455,13 +461,8 @@ def test_a_swap_right_after_the_last_stream_word_is_taken(slots):
     clocks apart, the closest the bus allows): the CRC of that word
     (``crc_clocks``) and the registered check (``match_stages``) are
     complete in time, so the intact stream is taken, not refused."""
-    length_old, length_new = 5, 4
-    old = pack_iq([1000 * (k + 1) for k in range(length_old)], [0] * length_old)
-    new = [int(w) for w in pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)]
-    inits = [ChannelInit(tuple(int(w) for w in old), 3 << 30, 1 << 16, 0, True)]
-    dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
-    a = dut.register_map.addr
-    R = dut.contract.refill_samples
+    dut, inits, new, a, R = reload_bench(slots)
+    length_new = len(new)
     T = 2 * R + 120
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     k = R + 10
