@@ -7,7 +7,7 @@ from amaranth.lib.wiring import In, Out
 from ..model.regmap import RegisterMap, CRC32_POLY, STORED
 from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 
-__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks"]
+__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks", "match_stages"]
 
 
 def crc32_step(crc, bits):
@@ -35,22 +35,22 @@ def crc32_step(crc, bits):
     return Cat(*out)
 
 
-def crc_clocks(slots: int) -> int:
-    """Clocks the stream CRC takes per word: 4 (a byte a clock) when writes
-    land at least 6 clocks apart (M >= 6), 2 at M = 4 and 5, else 1, so that
-    the CRC and the SWAP check's registered comparison (``match_stages``)
-    are complete when the next write lands. A byte a clock keeps each step's
-    XORs sparse (one register bit and a few of the byte's), where a word a
-    clock is a dense network of the register in its own loop."""
-    return 4 if slots >= 6 else 2 if slots >= 4 else 1
-
-
 def match_stages(slots: int) -> int:
     """Registered levels of the SWAP check (the run's start, words and CRC
     against a channel's BASE, LENGTH and CRC): none at M = 1, one at M = 2,
     two from M = 3 (the comparisons, then their AND: about 60 bits compared
     in one clock was a 200 MHz build's worst path, 7.2 ns, docs/bitstream.md)."""
     return min(2, slots - 1)
+
+
+def crc_clocks(slots: int) -> int:
+    """Clocks the stream CRC takes per word: the most of 4 (a byte a clock),
+    2 and 1 with which the CRC and then the SWAP check (``match_stages``) are
+    complete when the next write lands, M clocks later (4 from M = 6, 2 at
+    M = 4 and 5). A byte a clock keeps each step's XORs sparse (one register
+    bit and a few of the byte's), where a word a clock is a dense network of
+    the register in its own loop."""
+    return next(k for k in (4, 2, 1) if k + match_stages(slots) <= slots)
 
 
 class BusSignature(wiring.Signature):
@@ -327,7 +327,6 @@ class RegisterFile(wiring.Component):
         # The CRC takes crc_clocks(M) clocks per word, 32 / k bits a clock: the
         # first part in the landing clock, the rest from ``crc_rest``.
         k = crc_clocks(c.slots)
-        assert k + match_stages(c.slots) <= c.slots, "the SWAP check would see a CRC not yet complete"
         b = 32 // k
         crc_rest = Signal(32 - b, name="run_crc_rest")
         crc_left = Signal(range(k), name="run_crc_left")
@@ -345,6 +344,7 @@ class RegisterFile(wiring.Component):
                 m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
                              crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
+        stages = match_stages(c.slots)
 
         # Per channel: what the engine reads, the applied tap, the command.
         for l in range(N):
@@ -362,12 +362,12 @@ class RegisterFile(wiring.Component):
             match = Cat(run_start == storage[("BASE", l, "base")],
                         run_count == storage[("LENGTH", l, "length")],
                         ~run_crc == storage[("CRC", l, "crc")])
-            if match_stages(c.slots) == 2:
+            if stages == 2:
                 parts = Signal(3, name=f"match_parts{l}")
                 m.d.sync += parts.eq(match)
                 match = parts
             match = match.all()
-            if match_stages(c.slots) >= 1:
+            if stages >= 1:
                 match_q = Signal(name=f"match{l}")
                 m.d.sync += match_q.eq(match)
                 match = match_q

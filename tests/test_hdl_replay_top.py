@@ -5,6 +5,8 @@ import warnings
 
 import numpy as np
 import pytest
+from amaranth.hdl import Module, Signal, ResetInserter
+from amaranth.sim import Simulator
 
 from rast.hdl.replay_top import WindFarmReplay
 from rast.model.datapath import ReplayModel
@@ -412,8 +414,6 @@ def test_a_reset_mid_run_drops_every_sample_in_flight(slots, interpolation):
     """The data registers are not reset (rast.hdl.channel_pipeline): a reset
     in the middle of a run must still give, as at power-up, only muted
     (zero) samples for the refill after it, nothing left over from before."""
-    from amaranth.hdl import Module, Signal, ResetInserter
-    from amaranth.sim import Simulator
     rng = np.random.default_rng(slots * 7 + len(interpolation))
     inits = rand_inits(rng, 3)
     dut = WindFarmReplay(3, slots=slots, init=inits, **{**KW, "interpolation": interpolation})
