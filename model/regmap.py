@@ -47,8 +47,10 @@ def stream_crc32(words, crc: int = 0) -> int:
     """CRC-32 (zlib's) of stream words as the pool holds them: each 32-bit
     word (I low, Q high) as four bytes, least significant first; ``crc``
     continues an earlier value. This is what CH[l].CRC must hold for a switch."""
-    w = np.asarray(words, dtype=np.int64) & 0xFFFFFFFF
-    return zlib.crc32(w.astype("<u4").tobytes(), crc)
+    w = np.asarray(words)
+    if w.dtype != np.dtype("<u4"):              # packed words (uint32) are taken as they are
+        w = (w.astype(np.int64) & 0xFFFFFFFF).astype("<u4")
+    return zlib.crc32(np.ascontiguousarray(w).data, crc)
 
 
 @dataclass(frozen=True)

@@ -368,7 +368,7 @@ class FarmStreams:
                 "phase_increment": s.plan.phase_increment,
                 # what the block checks a switch against (CH[l].CRC), and the
                 # loaders check the stream file against
-                "crc32": stream_crc32(s.words),
+                "crc32": stream_crc32(s.words_u32()),
                 "delay_samples": s.delay_samples,
                 "tap": s.tap,
                 "relative_amplitude": s.relative_amplitude,

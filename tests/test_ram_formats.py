@@ -7,6 +7,7 @@ the plain formulations (f-strings, struct, np.save)."""
 import dataclasses
 import json
 import re
+import zlib
 
 import numpy as np
 import pytest
@@ -187,6 +188,8 @@ def test_files_written_while_computing_are_the_plain_writers_bytes(tmp_path, mon
         words = [int(w) for w in pack_iq(s.i, s.q)]
         assert written[f"{name}.hex"].read_bytes() == "".join(f"{w:08x}\n" for w in words).encode()
         assert written[f"{name}.bin"].read_bytes() == struct.pack(f"<{len(words)}I", *words)
+        entry = next(e for e in json.loads(written["manifest.json"].read_text())["windmills"] if e["name"] == name)
+        assert entry["crc32"] == zlib.crc32(struct.pack(f"<{len(words)}I", *words))
         saved = tmp_path / "saved.npy"
         np.save(saved, np.array(s.period))
         assert written[f"{name}.npy"].read_bytes() == saved.read_bytes()
