@@ -82,6 +82,22 @@ def test_random_against_model(channels, opts, valid, ready):
     check(dut, inits, xi, xq, valid=valid, ready=ready, name=f"N={channels} {opts} {valid} {ready}")
 
 
+@pytest.mark.parametrize("slots", [1, 2, 3, 10])
+def test_an_output_held_back_fills_the_fifo_and_loses_no_sample(slots):
+    """``o.ready`` one clock in 100: slower than the input at every M and rarer than
+    the pipeline's latency, so the output FIFO fills and ``i.ready`` must hold the
+    input back exactly while every place is taken (a sample too many finds the
+    FIFO full and is dropped: one output fewer)."""
+    rng = np.random.default_rng(slots)
+    inits = rand_inits(rng, slots + 1)
+    dut = WindFarmReplay(slots + 1, init=inits, slots=slots, **{k: v for k, v in KW.items()})
+    T = 60
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    hi, hq, done = run_replay(dut, xi, xq, ready=(1,) + (0,) * 99, max_cycles=T * 100 + 2000)
+    mi, mq, _, _ = model_replay(dut.contract, inits, xi, xq, done, dut.init_common_delay)
+    assert_same(f"M={slots}, output held back", xi, xq, hi, hq, mi, mq)
+
+
 @pytest.mark.parametrize("slots", [1, 3])
 def test_gaps_do_not_change_output(slots):
     rng = np.random.default_rng(11)
