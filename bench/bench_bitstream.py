@@ -6,7 +6,12 @@ requested clock, achieved fmax, timing met, LUTs, FFs, DSPs, block RAMs, and
 what limits it (the critical path's end points). ``--reuse`` reads reports
 already built instead of building again; ``--only LABEL`` builds one rung.
 
-    .venv/bin/python bench/bench_bitstream.py [--reuse] [--only n8_100]
+    .venv/bin/python bench/bench_bitstream.py [--reuse] [--only n8_100] [--late 30]
+
+``--late K`` also lists, from nextpnr's detailed timing report, the K signals
+whose endpoints the data reaches latest after the asked clock period: the
+whole picture of what misses the clock, where the build's critical path is
+only its worst path.
 """
 
 import argparse
@@ -14,7 +19,7 @@ import json
 import time
 from pathlib import Path
 
-from rast.gateware.build import BuildConfig, build
+from rast.gateware.build import NAME, BuildConfig, build, late_endpoints
 from rast.model.fixedpoint import ReplayContract
 
 #: label -> (what it answers, BuildConfig keyword arguments). Every rung on the
@@ -84,11 +89,31 @@ def seed_capacity():
               f"{'all fit' if fits else 'does not fit'}")
 
 
+def print_late(out, rep, k):
+    """The signals whose endpoints miss the asked fabric clock (late_endpoints)."""
+    t = rep["timing"]
+    clock = t["fabric_clock"]
+    period = 1e3 / rep["config"]["clock_mhz"]
+    nextpnr = json.loads((out / f"{NAME}.report.json").read_text())
+    if "detailed_net_timings" not in nextpnr:
+        print(f"{'':<12} (no detailed timing in this build: build it again with --late)")
+        return
+    late = late_endpoints(nextpnr, clock, period)
+    total = sum(n for _, n, _ in late)
+    print(f"{'':<12} {total} endpoints reached more than {period:.2f} ns after the clock, "
+          f"in {len(late)} signals; the {min(k, len(late))} latest:")
+    for name, n, arrival in late[:k]:
+        print(f"{'':<14} {arrival:6.2f} ns  {n:5d}  {name}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reuse", action="store_true", help="print reports already built")
     ap.add_argument("--only", action="append", choices=sorted(LADDER), help="build only these rungs")
     ap.add_argument("--capacity", action="store_true", help="only print the turbines-per-device table")
+    ap.add_argument("--late", type=int, metavar="K", default=0,
+                    help="build with nextpnr's detailed timing report and list the K signals whose "
+                         "endpoints miss the asked clock by the most (all endpoints counted)")
     args = ap.parse_args()
     if args.capacity:
         seed_capacity()
@@ -102,9 +127,13 @@ def main():
         rp = out / "report.json"
         if not (args.reuse and rp.exists()):
             t0 = time.monotonic()
-            build(BuildConfig(**kw), out, quiet=True)
+            extra = ["--detailed-timing-report"] if args.late else []
+            build(BuildConfig(**kw, extra_nextpnr=extra), out, quiet=True)
             what += f" (built in {time.monotonic() - t0:.0f} s)"
-        print(row(label, what, json.loads(rp.read_text())), flush=True)
+        rep = json.loads(rp.read_text())
+        print(row(label, what, rep), flush=True)
+        if args.late:
+            print_late(out, rep, args.late)
     seed_capacity()
 
 

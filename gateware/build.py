@@ -174,6 +174,31 @@ def critical_path(rep, clock):
     return {}
 
 
+#: What follows a signal's name in the names of the cells Yosys and nextpnr make of it.
+_CELL_SUFFIX = re.compile(r"(_TRELLIS_|_LUT4|_CCU2C|_PFUMX|_L6MUX|\$|_DPRAM|_DP16KD|_MULT18X18D).*$")
+
+
+def late_endpoints(rep, clock, period_ns):
+    """Endpoints of ``clock`` that the data reaches more than ``period_ns`` after
+    the edge, from nextpnr's ``detailed_net_timings`` (``--detailed-timing-report``),
+    grouped by the signal whose cell they are: ``[(signal, endpoints, latest
+    arrival in ns)]``, the latest first. Arrival is not slack (it leaves out the
+    setup time and clock skew, a few tens of ps here), but it shows at a glance
+    which parts of the design miss a clock, not only the one worst path."""
+    event = f"posedge {clock}"
+    groups = {}
+    for net in rep.get("detailed_net_timings", []):
+        for ep in net.get("endpoints", []):
+            delay = ep.get("delay", 0)              # [earliest, latest] arrival, or one value
+            arrival = float(delay[-1] if isinstance(delay, list) else delay)
+            if ep.get("event") != event or arrival <= period_ns:
+                continue
+            name = re.sub(r"(_\d+|\[\d+\])+$", "", _CELL_SUFFIX.sub("", ep["cell"]))
+            count, latest = groups.get(name, (0, 0.0))
+            groups[name] = (count + 1, max(latest, arrival))
+    return sorted(((k, n, t) for k, (n, t) in groups.items()), key=lambda g: -g[2])
+
+
 def clock_domains(clocks, rep, fabric_mhz, sdram_mhz=None):
     """Which of nextpnr's clocks (named after a net) belongs to which domain:
     ``sync`` (the fabric), and with an SDRAM pool ``sdram`` (the controller)

@@ -7,6 +7,9 @@ from amaranth.lib.wiring import In, Out
 from ..model.regmap import RegisterMap, CRC32_POLY, STORED
 from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 
+#: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
+PREDECODE_BITS = 4
+
 __all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks", "match_stages"]
 
 
@@ -246,6 +249,26 @@ class RegisterFile(wiring.Component):
             m.d.sync += s.eq(value)
             return s
 
+        # A register's write strobe, "the access in stage wd - 1 writes address
+        # a", is the AND of three ``decoded`` bits: valid & write, and one-hot
+        # bits of the address's low PREDECODE_BITS and of the rest. Each of
+        # those is one LUT from its stage, and the strobe one LUT into its
+        # landing register. Decoding the whole address into every strobe in
+        # one clock was three LUT levels behind a long route from the stage
+        # register (n10_20_200's worst path, op1 -> hit_phase_inc7, 7.0 ns).
+        decoded_bits = {}
+
+        def decoded_bit(key, fn):
+            if key not in decoded_bits:
+                decoded_bits[key] = decoded(fn, 1, f"pre_{key}")
+            return decoded_bits[key]
+
+        def writes(address):
+            low, high = address & ((1 << PREDECODE_BITS) - 1), address >> PREDECODE_BITS
+            return (decoded_bit("write", lambda op: op.valid & op.write)
+                    & decoded_bit(f"lo{low}", lambda op: op.addr[:PREDECODE_BITS] == low)
+                    & decoded_bit(f"hi{high}", lambda op: op.addr[PREDECODE_BITS:] == high))
+
         def clamped_value(reg_name, f):
             """The field's value from the access in stage wd - 1, clamped: the
             comparisons a clock earlier, in ``decoded`` registers, so that the
@@ -284,14 +307,11 @@ class RegisterFile(wiring.Component):
                 return op.valid & op.write & (inside | (op.addr == apply_addr))
             hit = decoded(in_group, 1, f"hit_{tag}")
             dcopy = landing(Mux(hit, before.data, 0), 32, f"land_data_{tag}")
-            ap = landing(decoded(lambda op: op.valid & op.write & (op.addr == apply_addr) & op.data[0],
-                                 1, f"apply_{tag}"), 1, f"land_apply_{tag}")
+            ap = landing(writes(apply_addr) & before.data[0], 1, f"land_apply_{tag}")
             group_clamped = {}
             for r in regs:
                 suffix = "" if r.channel is None else str(r.channel)
-                strobe[r.addr] = landing(decoded(lambda op: op.valid & op.write & (op.addr == r.addr),
-                                                 1, f"hit_{r.name.lower()}{suffix}"),
-                                         1, f"w_{r.name.lower()}{suffix}")
+                strobe[r.addr] = landing(writes(r.addr), 1, f"w_{r.name.lower()}{suffix}")
                 for f in r.fields:
                     if f.access not in STORED:
                         continue

@@ -273,6 +273,28 @@ def test_clock_domains_from_nextpnr_report():
     assert clock_domains(clocks, rep, 50.0, 50.0) == {"sync": "$glbnet$b", "sdram": "$glbnet$a"}
 
 
+def test_late_endpoints_group_the_cells_of_a_signal():
+    """Endpoints later than the period, of the asked clock only, grouped by the
+    signal their cells were made from (cell names as nextpnr wrote them in the
+    n10_20_200 build), latest first; arrivals are [earliest, latest]."""
+    from rast.gateware.build import late_endpoints
+    clk, other = "$glbnet$core.clk", "$glbnet$core.sdram_clk"
+
+    def net(*endpoints):
+        return {"endpoints": [{"cell": c, "delay": [0.5, d], "event": f"posedge {e}", "port": "DI"}
+                              for c, d, e in endpoints]}
+    rep = {"detailed_net_timings": [
+        net(("core.pipe0.mac_word.re_TRELLIS_FF_Q_3", 7.2, clk), ("core.pipe0.mac_word.re_TRELLIS_FF_Q", 5.1, clk),
+            ("core.pipe0.mac_word.im_TRELLIS_FF_Q_12", 4.9, clk)),
+        net(("core.regs.run_count_TRELLIS_FF_Q_DI_CCU2C_S0$CCU2_COMB1", 6.1, clk),
+            ("core.regs.run_count[3]", 5.5, clk), ("core.sdram.x_TRELLIS_FF_Q", 9.0, other)),
+        net(("core.common.mem.bram8$DP16KD", 5.7, clk))]}
+    assert late_endpoints(rep, clk, 5.0) == [("core.pipe0.mac_word.re", 2, 7.2), ("core.regs.run_count", 2, 6.1),
+                                             ("core.common.mem.bram8", 1, 5.7)]
+    assert late_endpoints(rep, clk, 7.5) == []
+    assert late_endpoints({}, clk, 5.0) == []
+
+
 def test_cli_sdram_option(tmp_path, capsys):
     """`rast build --sdram`: the pool in SDRAM, its words the whole SDRAM unless
     --pool-words is given; refused for a plain device before anything is built."""
