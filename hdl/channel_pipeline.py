@@ -61,6 +61,9 @@ def _delay(m, sig, n, name, *, data=False):
 #: Address bits of the FIR coefficient ROM's second level (2**k first-level ROMs).
 COEF_ROM_SPLIT_BITS = 2
 
+#: The word cache in up to 2**k banks, by the slot's upper bits.
+CACHE_BANK_BITS = 2
+
 
 #: Shortest delay kept in distributed RAM rather than in a chain of registers.
 RAM_DELAY_MIN = 3
@@ -491,20 +494,27 @@ class ChannelPipeline(wiring.Component):
                          self.req_tag.pos.eq(st.f_pos), self.req_tag.slot.eq(vslot)]
 
         # ---- the word cache: M x CACHE_WORDS words, by (slot, position) ----------
+        # In banks by the slot's upper bits (up to 2**CACHE_BANK_BITS of them):
+        # a read can then select its bank a clock after the banks' own reads.
         depth = CACHE_WORDS << (SB if M > 1 else 0)
+        bank_bits = min(CACHE_BANK_BITS, SB if M > 1 else 0)
+        in_bank = (depth >> bank_bits).bit_length() - 1          # address bits inside a bank
+        fill_addr = Cat(self.fill_tag.pos, self.fill_tag.slot[:SB]) if M > 1 else self.fill_tag.pos
         copies = 2 if interp == "linear" else 1
         caches = []
         for k in range(copies):
-            # distributed RAM: a few words per slot, read and written every clock
-            # (Yosys would otherwise take the registered read into a block RAM)
-            mem = Memory(shape=unsigned(2 * STREAM_WIDTH), depth=depth, init=[],
-                         attrs={"ram_style": "distributed"})
-            m.submodules[f"cache{k}"] = mem
-            wp = mem.write_port()
-            m.d.comb += [wp.en.eq(self.fill_en), wp.data.eq(self.fill_data),
-                         wp.addr.eq(Cat(self.fill_tag.pos, self.fill_tag.slot[:SB]) if M > 1
-                                    else self.fill_tag.pos)]
-            caches.append(mem.read_port(domain="comb"))
+            ports = []
+            for bank in range(1 << bank_bits):
+                # distributed RAM: a few words per slot, read and written every clock
+                # (Yosys would otherwise take the registered read into a block RAM)
+                mem = Memory(shape=unsigned(2 * STREAM_WIDTH), depth=depth >> bank_bits, init=[],
+                             attrs={"ram_style": "distributed"})
+                m.submodules[f"cache{k}_{bank}"] = mem
+                wp = mem.write_port()
+                m.d.comb += [wp.en.eq(self.fill_en & (fill_addr[in_bank:] == bank)),
+                             wp.data.eq(self.fill_data), wp.addr.eq(fill_addr[:in_bank])]
+                ports.append(mem.read_port(domain="comb"))
+            caches.append(ports)
 
         # ---- arrival check (SDRAM pool): a bit per cache position, cleared
         # when its fetch is granted, set when the word arrives. A read that
@@ -522,21 +532,28 @@ class ChannelPipeline(wiring.Component):
             with m.If(a["grant"]):
                 m.d.sync += arrived.bit_select(Cat(st.f_pos, vslot[:SB]) if M > 1 else st.f_pos, 1).eq(0)
             with m.If(self.fill_en):
-                m.d.sync += arrived.bit_select(Cat(self.fill_tag.pos, self.fill_tag.slot[:SB]) if M > 1
-                                               else self.fill_tag.pos, 1).eq(1)
+                m.d.sync += arrived.bit_select(fill_addr, 1).eq(1)
 
-        def cache_read(port, pos, name, matters=None):
+        def cache_read(ports, pos, name, matters=None, clocks=1):
             """The cache word at ``pos`` of the visiting slot, the address
-            registered in the visit, the word a clock later in a register
-            (``matters``: the read is checked for an arrived word)."""
+            registered in the visit, the word ``clocks`` clocks later in a
+            register: with 2, each bank's word is registered first and the
+            bank selected in the second clock (a selection among 16 LUT RAMs
+            in one clock was n10_20_200's worst path, 7.2 ns). ``matters``:
+            the read is checked for an arrived word."""
+            assert clocks in (1, 2)
             # keep: else synthesis merges the register into the distributed
             # RAM's read port and moves it after the RAM, the address logic
             # and the RAM then in one clock (7.7 ns)
-            addr = Signal(len(port.addr), name=f"{name}_addr", attrs={"keep": 1}, reset_less=True)
+            addr = Signal(in_bank + bank_bits, name=f"{name}_addr", attrs={"keep": 1}, reset_less=True)
             m.d.sync += addr.eq(Cat(pos[:POS_BITS], vslot[:SB]) if M > 1 else pos[:POS_BITS])
             word = Signal(IQ(STREAM_WIDTH), name=name, reset_less=True)
-            m.d.comb += port.addr.eq(addr)
-            m.d.sync += word.eq(port.data)
+            m.d.comb += [port.addr.eq(addr[:in_bank]) for port in ports]
+            words, bank = [port.data for port in ports], addr[in_bank:]
+            if clocks == 2:
+                words = [_delay(m, w, 1, f"{name}_bank{k}", data=True) for k, w in enumerate(words)]
+                bank = _delay(m, bank, 1, f"{name}_bank", data=True)
+            m.d.sync += word.eq(Array(words)[bank] if len(words) > 1 else words[0])
             if arrival and matters is not None:
                 chk = Signal(name=f"{name}_checked")
                 m.d.sync += chk.eq(matters & playing)
@@ -662,7 +679,7 @@ class ChannelPipeline(wiring.Component):
             parts.append(part)
         coef = Signal(signed(FIR_COEF_WIDTH), name="mac_coef", reset_less=True)
         m.d.sync += coef.eq(Array(parts)[rom_high])
-        word = _delay(m, cache_read(cache, st.rpos, "mac_word", st.issuing), 1, "mac_word", data=True)   # beside the ROM's second level
+        word = cache_read(cache, st.rpos, "mac_word", st.issuing, clocks=2)   # beside the ROM's two levels
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),

@@ -185,14 +185,19 @@ class WindFarmReplay(wiring.Component):
         else:
             # ``accept`` (i.valid & ready) is made beside the input's pins; in the
             # count that decides ``ready`` it was a loop from ``ready`` out to
-            # the pins and back (n10_20_200's worst path, 7.3 ns, 5.5 routing).
-            # From M = 2 it enters the count a clock late, from a register: the
-            # count is needed only in the period's last clock, when the
-            # period's one accept (in its first clock) is at most a clock old
-            # and the clock itself accepts nothing (``ready`` is low there).
+            # the pins and back (n10_20_200's worst path, 7.3 ns, 5.5 routing),
+            # and ``out_taken`` came from the output's pins through the FIFO
+            # (7.4 ns). From M = 2 both enter the count a clock late, from
+            # registers: ``count`` is then the words accepted and not taken
+            # before this clock. It decides ``ready`` in the period's last
+            # clock, which accepts nothing (``ready`` is low there); a word
+            # taken in that same clock frees its place for the next period's
+            # decision, not this one's (the output then waits a period
+            # sooner, never a word lost).
             accepted = Signal()
-            count = in_flight + accepted - out_taken
-            m.d.sync += [accepted.eq(accept),
+            taken = Signal()
+            count = in_flight + accepted - taken
+            m.d.sync += [accepted.eq(accept), taken.eq(out_taken),
                          ready.eq((slot == M - 1) & (count < F)),
                          in_flight.eq(count)]
         m.d.comb += [self.i.ready.eq(ready), accept.eq(self.i.valid & ready),
