@@ -26,7 +26,7 @@ converters sample on the clock's falling/rising edge respectively, see the
 pin map), and ``dac_iq`` high marks the I half of each sample.
 """
 
-from amaranth.hdl import Elaboratable, Module, Signal, ClockSignal, Const, Mux, signed
+from amaranth.hdl import Elaboratable, Module, Signal, ClockSignal, Const, Cat, Mux, signed
 from amaranth.lib import io, wiring, stream
 from amaranth.lib.wiring import In, Out
 
@@ -198,10 +198,26 @@ class SampleIO(wiring.Component):
         m.submodules.dac_clk = dac_clk = io.DDRBuffer("o", self._dac.clk, o_domain=d)
         m.submodules.dac_iq = dac_iq = io.DDRBuffer("o", self._dac.iq, o_domain=d)
 
+        # The slot counter's value of the clock before, in a register beside
+        # the pins (reset to M - 1, so a clock after the counter's reset to 0):
+        # ``in_slot(S)``, "this clock's slot is in S", decodes it there. The
+        # block's counter sits in the core; decoded straight from it, the
+        # pins' registers were a long route and a compare away (the DAC's
+        # data from the slot counter, 7.5 to 7.8 ns in n10_20_200). A copy
+        # of the counter's next value instead is the counter itself to
+        # Yosys, which merged the two.
+        if M > 1:
+            before = Signal.like(self.slot, init=M - 1, name="pin_slot_before")
+            m.d[d] += before.eq(self.slot)
+
+        def in_slot(slots):
+            return Cat(*[before == (k - 1) % M for k in slots]).any() if M > 1 else Const(0 in slots)
+
         # The pattern's two half clocks of this slot, registered: high while
         # the half clock's index within the period is below M.
+        first_i, second_i = range((M + 1) // 2), range(M // 2)     # 2·slot < M, 2·slot + 1 < M
         hi0, hi1 = Signal(), Signal()
-        m.d[d] += [hi0.eq(2 * self.slot < M), hi1.eq(2 * self.slot + 1 < M)]
+        m.d[d] += [hi0.eq(in_slot(first_i)), hi1.eq(in_slot(second_i))]
         for cell in (adc_clk, dac_clk, dac_iq):
             m.d.comb += [cell.o[0].eq(hi0), cell.o[1].eq(hi1)]
 
@@ -212,9 +228,9 @@ class SampleIO(wiring.Component):
         i_held = Signal(signed(INPUT_WIDTH))
         x = Signal(IQ(INPUT_WIDTH))
         valid = Signal()
-        with m.If(self.slot == i_at):
+        with m.If(in_slot([i_at])):
             m.d[d] += i_held.eq(adc_data.i[0])
-        with m.If(self.slot == q_at):
+        with m.If(in_slot([q_at])):
             m.d[d] += [x.re.eq(adc_data.i[0] if M == 1 else i_held), x.im.eq(adc_data.i[q_bit]),
                        valid.eq(1)]
         with m.Elif(self.adc.ready):
@@ -223,12 +239,11 @@ class SampleIO(wiring.Component):
 
         # DAC: one sample per period, taken in its last clock, I then Q.
         y = Signal(IQ(OUTPUT_WIDTH))
-        m.d.comb += self.dac.ready.eq(self.slot == M - 1)
+        m.d.comb += self.dac.ready.eq(in_slot([M - 1]))
         with m.If(self.dac.ready):
             m.d[d] += y.eq(Mux(self.dac.valid, self.dac.payload, 0))
         d0, d1 = Signal(signed(OUTPUT_WIDTH)), Signal(signed(OUTPUT_WIDTH))
-        m.d[d] += [d0.eq(Mux(2 * self.slot < M, y.re, y.im)),
-                   d1.eq(Mux(2 * self.slot + 1 < M, y.re, y.im))]
+        m.d[d] += [d0.eq(Mux(in_slot(first_i), y.re, y.im)), d1.eq(Mux(in_slot(second_i), y.re, y.im))]
         m.d.comb += [dac_data.o[0].eq(d0), dac_data.o[1].eq(d1)]
         return m
 
