@@ -10,7 +10,7 @@ from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
 PREDECODE_BITS = 4
 
-__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks", "match_stages"]
+__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks", "crc_loads_first", "match_stages"]
 
 
 def crc32_step(crc, bits):
@@ -54,6 +54,14 @@ def crc_clocks(slots: int) -> int:
     bit and a few of the byte's), where a word a clock is a dense network of
     the register in its own loop."""
     return next(k for k in (4, 2, 1) if k + match_stages(slots) <= slots)
+
+
+def crc_loads_first(slots: int) -> bool:
+    """Whether a landing stream word only loads the CRC's shift register, the
+    CRC then stepping from there alone (a clock more: M = 5 and from M = 7):
+    the landing word straight into the CRC's XORs was a 200 MHz build's
+    worst path (6.8 ns, docs/bitstream.md)."""
+    return crc_clocks(slots) + 1 + match_stages(slots) <= slots
 
 
 class BusSignature(wiring.Signature):
@@ -344,22 +352,27 @@ class RegisterFile(wiring.Component):
         run_start = Signal.like(addr, name="run_start")
         run_count = Signal(c.length_width, name="run_count")
         run_crc = Signal(32, init=0xFFFFFFFF, name="run_crc")
-        # The CRC takes crc_clocks(M) clocks per word, 32 / k bits a clock: the
-        # first part in the landing clock, the rest from ``crc_rest``.
+        # The CRC takes crc_clocks(M) clocks per word, 32 / k bits a clock from
+        # ``crc_rest``; the first part in the landing clock unless
+        # crc_loads_first(M), where the landing clock only loads ``crc_rest``.
         k = crc_clocks(c.slots)
         b = 32 // k
-        crc_rest = Signal(32 - b, name="run_crc_rest")
-        crc_left = Signal(range(k), name="run_crc_left")
+        first = crc_loads_first(c.slots)
+        crc_rest = Signal(32 if first else 32 - b, name="run_crc_rest")
+        crc_left = Signal(range(k + first), name="run_crc_left")
         start_addr = rmap.reg("STREAM_ADDR").addr
         with m.If(strobe[start_addr]):
             m.d.sync += [run_start.eq(land_field[(start_addr, "addr")]),
                          run_count.eq(0), run_crc.eq(0xFFFFFFFF)]
         with m.Elif(data_w):
-            m.d.sync += [run_crc.eq(crc32_step(run_crc, land_data[None][:b])),
-                         run_count.eq(run_count + (run_count != (1 << c.length_width) - 1))]
-            if k > 1:
-                m.d.sync += [crc_rest.eq(land_data[None][b:]), crc_left.eq(k - 1)]
-        if k > 1:
+            m.d.sync += run_count.eq(run_count + (run_count != (1 << c.length_width) - 1))
+            if first:
+                m.d.sync += [crc_rest.eq(land_data[None]), crc_left.eq(k)]
+            else:
+                m.d.sync += run_crc.eq(crc32_step(run_crc, land_data[None][:b]))
+                if k > 1:
+                    m.d.sync += [crc_rest.eq(land_data[None][b:]), crc_left.eq(k - 1)]
+        if k > 1 or first:
             with m.Elif(crc_left != 0):
                 m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
                              crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
