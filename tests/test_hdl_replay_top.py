@@ -256,6 +256,25 @@ def reload_bench(slots):
     return dut, inits, new, dut.register_map.addr, dut.contract.refill_samples
 
 
+@pytest.mark.parametrize("slots", [1, 10])
+def test_the_stream_word_count_stops_at_its_largest_value(slots):
+    """STREAM_COUNT counts the words written since STREAM_ADDR up to its
+    largest value (2**9 - 1 in this build) and stays there; read around that
+    value, gateware and model equal (check compares every read)."""
+    dut, inits, new, a, R = reload_bench(slots)
+    top = (1 << dut.contract.length_width) - 1
+    assert top == 511
+    xi = np.zeros(40, dtype=np.int64); xq = np.zeros(40, dtype=np.int64)
+    ops = [(5, "w", a("STREAM_ADDR"), 200)]
+    for n in range(1, top + 4):
+        ops.append((5, "w", a("STREAM_DATA"), n))
+        if n >= top - 2:
+            ops.append((5, "r", a("STREAM_COUNT"), 0))
+    _, _, done, _ = check(dut, inits, xi, xq, ops, name=f"word count, M = {slots}")
+    counts = [v for _, kind, _, v in done if kind == "r"]
+    assert counts == [top - 2, top - 1, top, top, top, top]
+
+
 @pytest.mark.parametrize("slots, damage", [(1, "bit"), (3, "bit"), (5, "bit"), (1, "lost word"), (3, "moved"),
                                            (10, "moved")])
 def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, damage):
