@@ -549,11 +549,14 @@ class ChannelPipeline(wiring.Component):
             m.d.sync += addr.eq(Cat(pos[:POS_BITS], vslot[:SB]) if M > 1 else pos[:POS_BITS])
             word = Signal(IQ(STREAM_WIDTH), name=name, reset_less=True)
             m.d.comb += [port.addr.eq(addr[:in_bank]) for port in ports]
-            words, bank = [port.data for port in ports], addr[in_bank:]
+            words = [port.data for port in ports]
             if clocks == 2:
                 words = [_delay(m, w, 1, f"{name}_bank{k}", data=True) for k, w in enumerate(words)]
-                bank = _delay(m, bank, 1, f"{name}_bank", data=True)
-            m.d.sync += word.eq(Array(words)[bank] if len(words) > 1 else words[0])
+            if len(words) == 1:
+                m.d.sync += word.eq(words[0])
+            else:
+                bank = addr[in_bank:] if clocks == 1 else _delay(m, addr[in_bank:], 1, f"{name}_bank", data=True)
+                m.d.sync += word.eq(Array(words)[bank])
             if arrival and matters is not None:
                 chk = Signal(name=f"{name}_checked")
                 m.d.sync += chk.eq(matters & playing)
