@@ -72,20 +72,15 @@ class UARTBridge(wiring.Component):
         cmd = Signal(8)
         addr = Signal(16)
         count = Signal(16)
-        # count == 1, a clock behind count: read only in WRITE, which a DATA
-        # byte (many clocks) separates from every change of count
-        count_one = Signal()
-        m.d.sync += count_one.eq(count == 1)
         data = Signal(32)
         n = Signal(2)
         idle = Signal(range(self._timeout + 1))
-        # timed_out == (idle == timeout) at all times, kept in a register so
-        # that the state machine does not wait for the counter's compare
         timed_out = Signal()
         with m.If(stb):
-            m.d.sync += [idle.eq(0), timed_out.eq(0)]
+            m.d.sync += idle.eq(0)
         with m.Elif(~timed_out):
-            m.d.sync += [idle.eq(idle + 1), timed_out.eq(idle == self._timeout - 1)]
+            m.d.sync += idle.eq(idle + 1)
+        m.d.comb += timed_out.eq(idle == self._timeout)
 
         # Every bus output comes straight from a flip-flop: the bus fans out to
         # all channels' registers across the device (timing, see docs/bitstream.md).
@@ -146,7 +141,7 @@ class UARTBridge(wiring.Component):
             with m.State("WRITE"):                   # w_stb is high until the block takes it
                 with m.If(bus.ready):
                     m.d.sync += [w_stb.eq(0), count.eq(count - 1)]
-                    with m.If(count_one):
+                    with m.If(count == 1):
                         m.next = "ACK"
                     with m.Else():
                         m.next = "DATA"
@@ -159,12 +154,9 @@ class UARTBridge(wiring.Component):
                     m.d.sync += data.eq(bus.r_data)
                     m.next = "REPLY"
             with m.State("REPLY"):
-                # the byte selected by n, data held: the reply queue's
-                # readiness enables two bits, not the whole word
-                # (bridge.data was a 200 MHz build's late endpoints)
-                m.d.comb += [txq.w_data.eq(data.word_select(n, 8)), txq.w_en.eq(1)]
+                m.d.comb += [txq.w_data.eq(data[:8]), txq.w_en.eq(1)]
                 with m.If(txq.w_rdy):
-                    m.d.sync += n.eq(n + 1)
+                    m.d.sync += [data.eq(data >> 8), n.eq(n + 1)]
                     with m.If(n == 3):
                         m.d.sync += [n.eq(0), self.frames.eq(self.frames + 1)]
                         m.next = "IDLE"

@@ -59,7 +59,7 @@ def _delay(m, sig, n, name, *, data=False):
 
 
 #: Address bits of the FIR coefficient ROM's second level (2**k first-level ROMs).
-COEF_ROM_SPLIT_BITS = 3
+COEF_ROM_SPLIT_BITS = 2
 
 #: The word cache in up to 2**k banks, by the slot's upper bits.
 CACHE_BANK_BITS = 2
@@ -279,13 +279,8 @@ class ChannelPipeline(wiring.Component):
         rslot = Signal(range(max(2, M)), init=M - 1, name="rslot")
         if M > 1:
             m.d.sync += rslot.eq(Mux(rslot == M - 1, 0, rslot + 1))
-        # ``start`` from a register (rslot's compare a clock earlier): it
-        # enables the step counter and the held step flag and number
-        start = Signal(name="start")
-        if M > 1:
-            m.d.sync += start.eq(rslot == M - 1)
-        else:
-            m.d.comb += start.eq(1)
+        start = Signal()
+        m.d.comb += start.eq(rslot == 0)
         vslot = _delay(m, rslot, V, "vslot")
         # The period's step flag and step number, loaded at its start, held
         # for the period's M visits (V clocks later).
@@ -378,18 +373,8 @@ class ChannelPipeline(wiring.Component):
         a["n_len_m1"] = rg.length - 1
         a["n_inc"] = rg.increment
         a["n_base"] = rg.base
-        # LENGTH is clamped to at least min_stream_length in the register file:
-        # with FIR (8 words at least) the new stream's one-word test and the
-        # FIR restart's clamp at 0 are constants (the compare was n10_20_200's
-        # worst path, rsel -> st_mid.n_last, 6.8 ns)
-        min_len = c.min_stream_length
-        a["n_last"] = (rg.length == 1) if min_len == 1 else 0
-        if not back:
-            a["n_fstart"] = 0
-        elif min_len > back:
-            a["n_fstart"] = rg.length - back
-        else:
-            a["n_fstart"] = Mux(rg.length > back, rg.length - back, 0)
+        a["n_last"] = rg.length == 1
+        a["n_fstart"] = Mux(rg.length > back, rg.length - back, 0) if back else 0
         present_v = Signal()
         m.d.comb += present_v.eq(present.bit_select(vslot, 1) if M > 1 else present[0])
         want = (st.ahead < CACHE_FILL_WORDS) & ~st.restart & present_v
@@ -488,23 +473,14 @@ class ChannelPipeline(wiring.Component):
 
         # The ring: head -> [A] -> mid -> [B] -> ... -> head: from the update's
         # end back to the head M - 1 clocks (one at M = 1; the head is the last).
-        # From M = 3 the update's end is a register (``st_done``) in front of
-        # the rest of the ring: stage B's selection into the ring's LUT RAM
-        # directly was a 200 MHz build's late endpoints (``st_ring``, 6.6 ns).
         back = max(1, M - 1)
-        ring_in, done = nxt, []
-        if M >= 3:
-            ring_in = Signal(SL, init=init_at(2), name="st_done")
-            m.d.sync += ring_in.eq(nxt)
-            done = [ring_in]
-        first = 2 + len(done)
-        ring_inits = [init_at((j + first) % M) for j in range(back - len(done))]
-        last, regs = _ring_delay(m, ring_in, back - len(done), ring_inits, "st_ring")
+        ring_inits = [init_at((j + 2) % M) for j in range(back - 1)] + [init_at(0)]
+        last, regs = _ring_delay(m, nxt, back, ring_inits, "st_ring")
         m.d.comb += head.eq(last)
         #: Every slot's state in the ring's registers (for the formal checks):
-        #: the head and the others of a short ring, the update's end register
-        #: (M >= 3) and the state part of the update's second stage (M >= 2).
-        self.ring_states = done + regs + ([SL(mid.as_value()[:SL.size])] if M > 1 else [])
+        #: the head and the others of a short ring, and the state part of the
+        #: update's second stage (M >= 2).
+        self.ring_states = regs + ([SL(mid.as_value()[:SL.size])] if M > 1 else [])
 
         # Mirrors of pending and bank, per slot, from the completed update.
         bslot = _delay(m, vslot, self.update_stage, "bslot")
@@ -686,10 +662,9 @@ class ChannelPipeline(wiring.Component):
                 rom_init[(p << TB) | k] = v
         # In logic, not a block RAM (the block RAMs are the pool's and the
         # delays'), and in two registered levels: ROMs of the address's low
-        # bits (a 6-input function per bit, four LUTs and their muxes), then a
+        # bits (a 7-input function per bit, one slice's LUT-mux tree), then a
         # multiplexer of their outputs by the high bits. The whole 9-input ROM
-        # in one clock was the pipeline's worst path (7.9 ns); 7-input ROMs
-        # were 200 MHz late endpoints (mac_coef*, 6.5 ns).
+        # in one clock was the pipeline's worst path (7.9 ns).
         addr_bits = TB + PB
         low_bits = addr_bits - COEF_ROM_SPLIT_BITS
         full = Cat(st.tap, st.cphase)

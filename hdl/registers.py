@@ -352,11 +352,6 @@ class RegisterFile(wiring.Component):
         run_start = Signal.like(addr, name="run_start")
         run_count = Signal(c.length_width, name="run_count")
         run_crc = Signal(32, init=0xFFFFFFFF, name="run_crc")
-        # run_count == its largest value, kept in a register: the count's
-        # saturating increment from its own compare was a 200 MHz build's
-        # worst path (run_count -> run_count, 6.6 ns)
-        run_full = Signal(name="run_full")
-        count_max = (1 << c.length_width) - 1
         # The CRC takes crc_clocks(M) clocks per word, 32 / k bits a clock from
         # ``crc_rest``; the first part in the landing clock unless
         # crc_loads_first(M), where the landing clock only loads ``crc_rest``.
@@ -368,10 +363,9 @@ class RegisterFile(wiring.Component):
         start_addr = rmap.reg("STREAM_ADDR").addr
         with m.If(strobe[start_addr]):
             m.d.sync += [run_start.eq(land_field[(start_addr, "addr")]),
-                         run_count.eq(0), run_full.eq(0), run_crc.eq(0xFFFFFFFF)]
+                         run_count.eq(0), run_crc.eq(0xFFFFFFFF)]
         with m.Elif(data_w):
-            m.d.sync += [run_count.eq(run_count + ~run_full),
-                         run_full.eq(run_full | (run_count == count_max - 1))]
+            m.d.sync += run_count.eq(run_count + (run_count != (1 << c.length_width) - 1))
             if first:
                 m.d.sync += [crc_rest.eq(land_data[None]), crc_left.eq(k)]
             else:
@@ -398,19 +392,13 @@ class RegisterFile(wiring.Component):
             # engine consumes it when it reads the channel (cmd_ack).
             # landings are M clocks apart: the check in match_stages(M)
             # registered levels, off the path into the command
-            pairs = ((run_start, storage[("BASE", l, "base")]),
-                     (run_count, storage[("LENGTH", l, "length")]),
-                     (~run_crc, storage[("CRC", l, "crc")]))
+            match = Cat(run_start == storage[("BASE", l, "base")],
+                        run_count == storage[("LENGTH", l, "length")],
+                        ~run_crc == storage[("CRC", l, "crc")])
             if stages == 2:
-                # the first level in bytes (two LUT levels each), the AND of
-                # the parts in the second: whole 32-bit compares in the first
-                # were a 200 MHz build's late endpoints (match_parts*, 6.2 ns)
-                match = Cat(*[a[k:k + 8] == b[k:k + 8] for a, b in pairs for k in range(0, len(a), 8)])
-                parts = Signal(len(match), name=f"match_parts{l}")
+                parts = Signal(3, name=f"match_parts{l}")
                 m.d.sync += parts.eq(match)
                 match = parts
-            else:
-                match = Cat(*[a == b for a, b in pairs])
             match = match.all()
             if stages >= 1:
                 match_q = Signal(name=f"match{l}")
@@ -524,9 +512,7 @@ class RegisterFile(wiring.Component):
         then the group, registered, then delayed to stage ``end``. 0 when the
         read addresses none of ``words``."""
         st = stage[delay]
-        # 8 registers a group: an AND-OR of 16 inputs per bit, two LUT levels
-        # (16 a group were three, the one-pipeline 200 MHz build's rd3, 6.4 ns)
-        group = 8
+        group = 16
         groups = [words[k:k + group] for k in range(0, len(words), group)]
         firsts = []
         for g, items in enumerate(groups):
