@@ -142,14 +142,20 @@ class ChannelPipeline(wiring.Component):
         The pipeline's number p (its fetch tags say it; channel p*M + s is in slot s).
     slot_inits : list of SlotInit
         Per slot (M of them) the power-up stream.
-    regs_layout : data.StructLayout
-        Of ``regs`` (``rast.hdl.registers.channel_regs_layout``).
+    regs_layout, values_layout : data.StructLayout
+        Of ``regs`` and ``values`` (``rast.hdl.registers.channel_regs_layout``,
+        ``slot_values_layout``).
 
     Members
     -------
     accept : In(1)
         An input sample is accepted in this clock (only in a period's first clock).
     regs : In(regs_layout).array(M)
+        Per slot: the registers kept in flip-flops.
+    values : In(values_layout)
+        The register file's RAM part of the registers read in the clock
+        before (slot ``rslot`` then: the register file counts the slots in
+        step, from M - 1 at reset), registered.
     cmd_ack : Out(1).array(M)
         Slot s's registers are read in this clock (its command is consumed).
     win_data : In(32)
@@ -171,7 +177,7 @@ class ChannelPipeline(wiring.Component):
         word not yet arrived, in the clock before.
     """
 
-    def __init__(self, contract, index, slot_inits, regs_layout):
+    def __init__(self, contract, index, slot_inits, regs_layout, values_layout):
         if not isinstance(contract, ReplayContract):
             raise TypeError(f"Contract must be a ReplayContract, not {contract!r}")
         M = contract.slots
@@ -189,6 +195,7 @@ class ChannelPipeline(wiring.Component):
         super().__init__({
             "accept": In(1),
             "regs": In(regs_layout).array(M),
+            "values": In(values_layout),
             "cmd_ack": Out(1).array(M),
             "win_data": In(2 * INPUT_WIDTH),
             "offer": In(1),
@@ -297,14 +304,18 @@ class ChannelPipeline(wiring.Component):
         offer = _delay(m, self.offer, V, "offer")
 
         # ---- register read: slot rslot's registers, registered ---------------
-        # V = 1: one multiplexer; V = 2: groups of 4 slots by the low bits,
-        # registered, then the group (the select fans out to every bit).
+        # The flip-flop part: V = 1, one multiplexer; V = 2, groups of 4 slots
+        # by the low bits, registered, then the group (the select fans out to
+        # every bit). The RAM part comes registered; V - 1 registers more.
         rl = self.regs[0].shape()
-        rsel = Signal(rl, name="rsel")
+        vl = self.values.shape()
+        rsel = Signal(data.StructLayout({**dict(rl.members), **dict(vl.members)}), name="rsel")
+        flags = Signal(rl, name="rsel_flags")
+        m.d.comb += rsel.as_value().eq(Cat(flags, _delay(m, self.values, V - 1, "rsel_values")))
         if M == 1:
-            m.d.sync += rsel.eq(self.regs[0])
+            m.d.sync += flags.eq(self.regs[0])
         elif V == 1:
-            m.d.sync += rsel.eq(Array(self.regs)[rslot])
+            m.d.sync += flags.eq(Array(self.regs)[rslot])
         else:
             groups = []
             for g in range(0, M, 4):
@@ -313,9 +324,9 @@ class ChannelPipeline(wiring.Component):
                 m.d.sync += part.eq(Array(members)[rslot[:2]] if len(members) > 1 else members[0])
                 groups.append(part)
             if len(groups) > 1:
-                m.d.sync += rsel.eq(Array(groups)[_delay(m, rslot[2:], 1, "rslot_hi")])
+                m.d.sync += flags.eq(Array(groups)[_delay(m, rslot[2:], 1, "rslot_hi")])
             else:
-                m.d.sync += rsel.eq(groups[0])
+                m.d.sync += flags.eq(groups[0])
         for s in range(M):
             m.d.comb += self.cmd_ack[s].eq(rslot == s)
 

@@ -2,15 +2,27 @@
 
 from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array
 from amaranth.lib import wiring, data
+from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from ..model.regmap import RegisterMap, CRC32_POLY, STORED
-from ..model.fixedpoint import STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS
+from ..model.regmap import RegisterMap, CRC32_POLY, STORED, CHANNEL_BASE, CHANNEL_STRIDE
+from ..model.fixedpoint import STREAM_WIDTH
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
 PREDECODE_BITS = 4
 
-__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "crc32_step", "crc_clocks", "crc_loads_first", "match_stages"]
+__all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "slot_values_layout", "SLOT_RAM_FIELDS",
+           "crc32_step", "crc_clocks", "crc_loads_first", "match_stages"]
+
+#: The per-channel values the engine reads by slot from a distributed RAM per
+#: group of channels (a pipeline's): name in ``slot_values_layout`` ->
+#: (register, field).
+SLOT_RAM_FIELDS = {"gain": ("GAIN", "gain"), "length": ("LENGTH", "length"),
+                   "increment": ("PHASE_INC", "inc"), "base": ("BASE", "base")}
+
+#: Every per-channel field kept in its group's distributed RAMs (and in no
+#: flip-flop): the engine's, and the CRC the SWAP check compares.
+RAM_FIELDS = {**SLOT_RAM_FIELDS, "crc": ("CRC", "crc")}
 
 
 def crc32_step(crc, bits):
@@ -87,21 +99,24 @@ class BusSignature(wiring.Signature):
 
 
 def channel_regs_layout(rmap: RegisterMap) -> data.StructLayout:
-    """What the engine reads of one channel's registers in its slot: the
-    stored values, the applied tap and the pending CTRL command (a CTRL write
-    not yet seen by the channel: its enable and swap bits)."""
-    c = rmap.contract
+    """What the engine reads of one channel's registers from flip-flops in
+    its slot: CTRL.enable, the applied tap (APPLY sets every channel's at
+    once) and the pending CTRL command (a CTRL write not yet seen by the
+    channel: its enable and swap bits)."""
     return data.StructLayout({
         "enable": 1,
-        "gain": GAIN_WIDTH,
-        "length": rmap.reg("LENGTH", 0).field("length").width,
-        "increment": PHASE_FRAC_BITS,
-        "base": c.pool_address_width,
         "tap": rmap.reg("DELAY", 0).field("delay").width,
         "cmd_valid": 1,
         "cmd_enable": 1,
         "cmd_swap": 1,
     })
+
+
+def slot_values_layout(rmap: RegisterMap) -> data.StructLayout:
+    """What the engine reads of one channel's registers from its group's
+    distributed RAM, by slot (``SLOT_RAM_FIELDS``)."""
+    return data.StructLayout({name: rmap.reg(reg, 0).field(field).width
+                              for name, (reg, field) in SLOT_RAM_FIELDS.items()})
 
 
 class RegisterFile(wiring.Component):
@@ -129,10 +144,15 @@ class RegisterFile(wiring.Component):
     write_delay, mirror_delay, status_delay : int
         Cycles from a taken access to its landing / sampling points (see above).
     groups : list of lists of channels, optional
-        Channels whose registers sit together (a pipeline's): each group
-        takes a registered copy of a write's data of its own, so the data
-        does not fan out to every channel. Writes are decoded in the cycle
-        before they land, so ``write_delay`` is at least 1.
+        Channels whose registers sit together (a pipeline's; all channels if
+        not given): each group takes a registered copy of a write's data of
+        its own, so the data does not fan out to every channel, and keeps
+        its channels' ``SLOT_RAM_FIELDS`` in distributed RAMs, channel
+        ``groups[g][s]`` at slot s. Writes are decoded in the cycle before
+        they land, so ``write_delay`` is at least 1.
+    slots : int, optional
+        Slots per group (its RAMs' depth; the longest group if not given):
+        a slot without a channel reads 0.
 
     Members
     -------
@@ -140,7 +160,12 @@ class RegisterFile(wiring.Component):
     take : In(1)
         The bus may be taken in this cycle.
     regs : Out(channel_regs_layout).array(N)
-        Per channel: stored values, the applied tap, the pending command.
+        Per channel: CTRL.enable, the applied tap, the pending command.
+    values : Out(slot_values_layout).array(G)
+        Per group, registered: the stored ``SLOT_RAM_FIELDS`` of one slot as
+        they were in the clock before, the slots taken in turn from
+        ``slots - 1`` at reset, one a clock (as a pipeline's slot counter
+        reads its registers).
     cmd_ack : In(1).array(N)
         The engine read channel l's registers: its command is consumed.
     common_delay : Out
@@ -157,7 +182,8 @@ class RegisterFile(wiring.Component):
         The same for STATUS.underflow (a stream word read before it arrived).
     """
 
-    def __init__(self, rmap: RegisterMap, *, write_delay=1, mirror_delay=1, status_delay=1, groups=None):
+    def __init__(self, rmap: RegisterMap, *, write_delay=1, mirror_delay=1, status_delay=1, groups=None,
+                 slots=None):
         if not isinstance(rmap, RegisterMap):
             raise TypeError(f"Register map must be a RegisterMap, not {rmap!r}")
         N = rmap.contract.channels
@@ -165,10 +191,20 @@ class RegisterFile(wiring.Component):
         if sorted(ch for g in groups for ch in g) != list(range(N)):
             raise ValueError(f"Groups must hold every channel 0..{N - 1} once, not {groups!r}")
         self._groups = groups
+        longest = max(len(g) for g in groups)
+        slots = longest if slots is None else slots
+        if not isinstance(slots, int) or isinstance(slots, bool) or slots < longest:
+            raise ValueError(f"Slots must be an integer of at least the longest group's {longest} "
+                             f"channels, not {slots!r}")
+        self._slots = slots
         for name, v, least in (("Write delay", write_delay, 1), ("Mirror delay", mirror_delay, 0),
                                ("Status delay", status_delay, 0)):
             if not isinstance(v, int) or isinstance(v, bool) or v < least:
                 raise ValueError(f"{name} must be an integer of at least {least}, not {v!r}")
+        if write_delay < match_stages(rmap.contract.slots) + 1:
+            raise ValueError(f"Write delay must be at least {match_stages(rmap.contract.slots) + 1} "
+                             f"(the SWAP check's registered levels and a clock for its read), "
+                             f"not {write_delay!r}")
         self._rmap = rmap
         self._write_delay, self._mirror_delay, self._status_delay = write_delay, mirror_delay, status_delay
         c = rmap.contract
@@ -178,6 +214,7 @@ class RegisterFile(wiring.Component):
             "bus": In(BusSignature(rmap.addr_width)),
             "take": In(1),
             "regs": Out(channel_regs_layout(rmap)).array(N),
+            "values": Out(slot_values_layout(rmap)).array(len(groups)),
             "cmd_ack": In(1).array(N),
             "common_delay": Out(self._cw),
             "pending": In(1).array(N),
@@ -222,10 +259,11 @@ class RegisterFile(wiring.Component):
                      stage[0].addr.eq(bus.addr), stage[0].data.eq(bus.w_data)]
         m.d.sync += [stage[k].eq(stage[k - 1]) for k in range(1, depth + 1)]
 
-        storage = {}          # (reg name, channel, field name) -> Signal
+        in_ram = {(reg, field) for reg, field in RAM_FIELDS.values()}
+        storage = {}          # (reg name, channel, field name) -> Signal; RAM_FIELDS are in RAMs
         for r in rmap.registers:
             for f in r.fields:
-                if f.access in STORED:
+                if f.access in STORED and not (r.channel is not None and (r.name, f.name) in in_ram):
                     storage[(r.name, r.channel, f.name)] = Signal(
                         f.width, init=f.reset, name=f"{r.name.lower()}{'' if r.channel is None else r.channel}_{f.name}")
 
@@ -340,7 +378,7 @@ class RegisterFile(wiring.Component):
         # Generic rw storage.
         for r in rmap.registers:
             for f in r.fields:
-                if f.access in STORED:
+                if (r.name, r.channel, f.name) in storage:
                     with m.If(strobe[r.addr]):
                         m.d.sync += storage[(r.name, r.channel, f.name)].eq(land_field[(r.addr, f.name)])
 
@@ -376,8 +414,139 @@ class RegisterFile(wiring.Component):
             with m.Elif(crc_left != 0):
                 m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
                              crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
+        # Per group, RAM_FIELDS in distributed RAMs, one per field, by slot
+        # (channel groups[g][s] at s), written in the clock a flip-flop would
+        # be. Three kinds of read, each a read port (a copy of the RAM):
+        # - the engine's, SLOT_RAM_FIELDS in turn by a slot counter of the
+        #   group's own, which counts as the pipeline's does, into one
+        #   register per field (``values``);
+        # - the read-back's, at the read's slot;
+        # - the SWAP check's, BASE, LENGTH and CRC at the CTRL write's slot.
+        # Flip-flops for them, selected by slot into the pipelines and by
+        # address into the read-back and compared per channel, were most of
+        # the router's congestion at 200 MHz (docs/bitstream.md). A RAM is not
+        # reset: until a slot's field is written after a reset, its reset
+        # value is read (a bit per slot and field says which).
+        S = self._slots
+        D = max(2, S)            # the RAMs' depth: no zero-width address at one slot
+        slot_bits = (D - 1).bit_length()
+        stride_bits = CHANNEL_STRIDE.bit_length() - 1
+        slot_of = [0] * (1 << (len(before.addr) - stride_bits))      # by address >> stride_bits
+        for members in self._groups:
+            for s, ch in enumerate(members):
+                slot_of[(CHANNEL_BASE + CHANNEL_STRIDE * ch) >> stride_bits] = s
+
+        def slot_at(op):
+            return Array(Const(s, slot_bits) for s in slot_of)[op.addr[stride_bits:]]
+
+        def ram_range(members):
+            """The addresses of the channel registers of ``members``."""
+            return (CHANNEL_BASE + CHANNEL_STRIDE * min(members),
+                    CHANNEL_BASE + CHANNEL_STRIDE * (max(members) + 1) - 1)
+
+        def ram_register(op, members, offset):
+            """The access ``op`` is to the register at ``offset`` of one of ``members``."""
+            lo, hi = ram_range(members)
+            return (op.addr >= lo) & (op.addr <= hi) & (op.addr[:stride_bits] == offset)
+
+        pre_slot = decoded(slot_at, slot_bits, "pre_slot")
+        pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
+                             D, "pre_slot_onehot")
+        ram_reads = []         # per group: field name -> fn(slot) -> the stored value
+        ram_raw = []           # per group: field name -> fn(slot) -> the RAM's word
+        unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
+        for g, members in enumerate(self._groups):
+            lo, hi = ram_range(members)
+            in_group = decoded(lambda op: op.valid & op.write & (op.addr >= lo) & (op.addr <= hi), 1,
+                               f"ram_hit_g{g}")
+            w_slot = landing(Mux(in_group, pre_slot, 0), slot_bits, f"ram_slot_g{g}")
+            w_onehot = landing(Mux(in_group, pre_onehot, 0), D, f"ram_slot_onehot_g{g}")
+            # the engine's slot counter, and one a slot ahead (both registers)
+            r_slot = Signal(range(D), init=S - 1, name=f"ram_rslot_g{g}")
+            r_ahead = Signal(range(D), init=0, name=f"ram_rslot_ahead_g{g}")
+            m.d.sync += [r_slot.eq(r_ahead), r_ahead.eq(Mux(r_ahead == S - 1, 0, r_ahead + 1))]
+            reads, raw, fresh_of = {}, {}, {}
+            for name, (reg_name, field_name) in RAM_FIELDS.items():
+                offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
+                width = rmap.reg(reg_name, 0).field(field_name).width
+                w_en = landing(in_group & decoded_bit(f"off{offset}",
+                                                      lambda op: op.addr[:stride_bits] == offset),
+                               1, f"ram_{name}_we_g{g}")
+                resets = [0] * D
+                for s, ch in enumerate(members):
+                    resets[s] = rmap.reg(reg_name, ch).field(field_name).reset
+                mem = Memory(shape=width, depth=D, init=resets, attrs={"ram_style": "distributed"})
+                m.submodules[f"ram_{name}_g{g}"] = mem
+                wp = mem.write_port()
+                land = land_field[(rmap.reg(reg_name, members[0]).addr, field_name)]
+                m.d.comb += [wp.en.eq(w_en), wp.addr.eq(w_slot), wp.data.eq(land)]
+                fresh = Signal(D, init=(1 << len(members)) - 1, name=f"ram_{name}_fresh_g{g}")
+                fresh_next = Signal(D, name=f"ram_{name}_fresh_next_g{g}")
+                m.d.comb += fresh_next.eq(fresh & ~Mux(w_en, w_onehot, 0))
+                m.d.sync += fresh.eq(fresh_next)
+                fresh_of[name] = fresh
+                reset_of = Array(Const(v, width) for v in resets)
+
+                def raw_read(slot, mem=mem):
+                    rp = mem.read_port(domain="comb")
+                    m.d.comb += rp.addr.eq(slot)
+                    return rp.data
+
+                def read(slot, raw_read=raw_read, fresh=fresh, reset_of=reset_of):
+                    return Mux(fresh.bit_select(slot, 1), reset_of[slot], raw_read(slot))
+                reads[name], raw[name] = read, raw_read
+                if name in SLOT_RAM_FIELDS:
+                    # the engine's: whether the slot read next is unwritten
+                    # since reset, and its reset value, a clock ahead, so that
+                    # the read's clock holds only the RAM and one selection
+                    use_reset = Signal(init=len(members) == S, name=f"ram_{name}_use_reset_g{g}")
+                    reset_value = Signal(width, init=resets[S - 1], name=f"ram_{name}_reset_g{g}")
+                    m.d.sync += [use_reset.eq(fresh_next.bit_select(r_ahead, 1)),
+                                 reset_value.eq(reset_of[r_ahead]),
+                                 self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
+            ram_reads.append(reads)
+            ram_raw.append(raw)
+            unstated.append(fresh_of["base"] | fresh_of["length"] | fresh_of["crc"])
+
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
         stages = match_stages(c.slots)
+
+        # The SWAP check (landings are M clocks apart, so the values are
+        # final match_stages(M) + 1 clocks before a CTRL write lands): each
+        # group compares the run with BASE, LENGTH and CRC of the slot the
+        # write addresses, read at that slot (from the bus, registered), in
+        # parts of 8 bits; the addressed group's result, in match_stages(M)
+        # registered levels, off the path into the command. A slot whose
+        # BASE, LENGTH or CRC is unwritten since reset does not match (the
+        # RAMs are not reset; the model: ReplayModel.write).
+        ctrl_offset = rmap.reg("CTRL", 0).addr - CHANNEL_BASE
+
+        def equal_parts(a, b, k=8):
+            return Cat(*(a[i:i + k] == b[i:i + k] for i in range(0, len(a), k)))
+        group_match = []
+        for g, members in enumerate(self._groups):
+            m_slot = Signal(slot_bits, name=f"match_slot_g{g}")
+            m_hit = Signal(name=f"match_hit_g{g}")
+            src = stage[wd - stages - 1]
+            m.d.sync += [m_slot.eq(slot_at(src)), m_hit.eq(ram_register(src, members, ctrl_offset))]
+            raw = ram_raw[g]
+            parts = Cat(equal_parts(run_start, raw["base"](m_slot)),
+                        equal_parts(run_count, raw["length"](m_slot)),
+                        equal_parts(~run_crc, raw["crc"](m_slot)))
+            stated = ~unstated[g].bit_select(m_slot, 1)
+            if stages == 2:
+                parts_q = Signal(len(parts), name=f"match_parts_g{g}")
+                hit_q = Signal(name=f"match_hit_q_g{g}")
+                m.d.sync += [parts_q.eq(parts), hit_q.eq(m_hit & stated)]
+                parts, m_hit = parts_q, hit_q
+            else:
+                m_hit = m_hit & stated
+            group_match.append(m_hit & parts.all())
+        match = Cat(group_match).any()
+        if stages >= 1:
+            match_q = Signal(name="match")
+            m.d.sync += match_q.eq(match)
+            match = match_q
 
         # Per channel: what the engine reads, the applied tap, the command.
         for l in range(N):
@@ -390,20 +559,6 @@ class RegisterFile(wiring.Component):
                 m.d.sync += tap.eq(storage[("DELAY", l, "delay")])
             # A CTRL write leaves a command for the channel's next visit; the
             # engine consumes it when it reads the channel (cmd_ack).
-            # landings are M clocks apart: the check in match_stages(M)
-            # registered levels, off the path into the command
-            match = Cat(run_start == storage[("BASE", l, "base")],
-                        run_count == storage[("LENGTH", l, "length")],
-                        ~run_crc == storage[("CRC", l, "crc")])
-            if stages == 2:
-                parts = Signal(3, name=f"match_parts{l}")
-                m.d.sync += parts.eq(match)
-                match = parts
-            match = match.all()
-            if stages >= 1:
-                match_q = Signal(name=f"match{l}")
-                m.d.sync += match_q.eq(match)
-                match = match_q
             swap = lnd[ctrl.field("swap").lsb]
             with m.If(strobe[ctrl.addr]):
                 m.d.sync += [rg.cmd_valid.eq(1),
@@ -413,14 +568,7 @@ class RegisterFile(wiring.Component):
                     m.d.sync += rejected[l].eq(~match)
             with m.Elif(self.cmd_ack[l]):
                 m.d.sync += rg.cmd_valid.eq(0)
-            m.d.comb += [
-                rg.enable.eq(storage[("CTRL", l, "enable")]),
-                rg.gain.eq(storage[("GAIN", l, "gain")]),
-                rg.length.eq(storage[("LENGTH", l, "length")]),
-                rg.increment.eq(storage[("PHASE_INC", l, "inc")]),
-                rg.base.eq(storage[("BASE", l, "base")]),
-                rg.tap.eq(tap),
-            ]
+            m.d.comb += [rg.enable.eq(storage[("CTRL", l, "enable")]), rg.tap.eq(tap)]
 
         common = rmap.reg("COMMON_DELAY")
         applied = Signal(self._cw, init=common.fields[0].reset, name="common_delay_applied")
@@ -489,11 +637,26 @@ class RegisterFile(wiring.Component):
         parts = [(self._write_delay, stored),
                  (self._mirror_delay, lambda key, f: hooks_mirror.get(key)),
                  (self._status_delay, lambda key, f: hooks_status.get(key))]
+        # RAM_FIELDS read back from their group's RAMs at the read's slot
+        # (from the stage before, registered), sampled with the stored values.
+        ram_words = []
+        for g, members in enumerate(self._groups):
+            rd_slot = Signal(slot_bits, name=f"rd_slot_g{g}")
+            m.d.sync += rd_slot.eq(slot_at(stage[wd - 1]))
+            for name, (reg_name, field_name) in RAM_FIELDS.items():
+                f = rmap.reg(reg_name, 0).field(field_name)
+                if f.access == "rw":
+                    offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
+                    ram_words.append((f"{name}_g{g}",
+                                      lambda op, members=members, offset=offset: ram_register(op, members, offset),
+                                      (ram_reads[g][name](rd_slot).as_unsigned() << f.lsb)[:32]))
         end = self.read_latency - 1
         results = []
         for delay, pick in parts:
-            words = [(r.addr, word_of(r, pick)) for r in rmap.registers]
-            words = [(a, w) for a, w in words if w is not None]
+            words = [(f"{r.addr:x}", lambda op, a=r.addr: op.addr == a, word_of(r, pick)) for r in rmap.registers]
+            words = [item for item in words if item[2] is not None]
+            if delay == wd:
+                words += ram_words
             if not words:
                 continue
             results.append(self._select(m, stage, delay, words, end))
@@ -510,7 +673,8 @@ class RegisterFile(wiring.Component):
         """The word of the register a read addresses, sampled at stage
         ``delay``: groups of registers selected into registers at that stage,
         then the group, registered, then delayed to stage ``end``. 0 when the
-        read addresses none of ``words``."""
+        read addresses none of ``words`` ((name, fn(op): the read is of this
+        word, word) each)."""
         st = stage[delay]
         group = 16
         groups = [words[k:k + group] for k in range(0, len(words), group)]
@@ -518,15 +682,15 @@ class RegisterFile(wiring.Component):
         for g, items in enumerate(groups):
             v = Signal(32, name=f"rd{delay}_{g}")
             sel = Const(0, 32)
-            for addr, w in items:
+            for name, reads, w in items:
                 # the address compare a clock earlier, in a register (the
                 # compare and the selection in one clock were the one-pipeline
                 # build's worst path at 7.8 ns)
-                hit = Signal(name=f"rd{delay}_hit{addr:x}")
+                hit = Signal(name=f"rd{delay}_hit_{name}")
                 if delay >= 1:
-                    m.d.sync += hit.eq(stage[delay - 1].addr == addr)
+                    m.d.sync += hit.eq(reads(stage[delay - 1]))
                 else:
-                    m.d.comb += hit.eq(st.addr == addr)
+                    m.d.comb += hit.eq(reads(st))
                 sel = sel | Mux(hit, w, 0)
             m.d.sync += v.eq(sel)
             firsts.append(v)

@@ -11,7 +11,7 @@ from .delay_line import DelayLine
 from .stream_pool import StreamPool
 from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
-from .registers import BusSignature, RegisterFile, channel_regs_layout
+from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
                                 POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
                                 write_staging, tree_levels, visit_cycles)
@@ -164,6 +164,7 @@ class WindFarmReplay(wiring.Component):
         b0 = 0 if M == 1 else 1                       # a pipeline's update stage
         K = c.output_cycles
         regs_layout = channel_regs_layout(self._rmap)
+        values_layout = slot_values_layout(self._rmap)
 
         # ---- the slot counter and the input ------------------------------------
         slot = self.slot
@@ -212,7 +213,7 @@ class WindFarmReplay(wiring.Component):
         V = visit_cycles(M)
         m.submodules.regs = regs = RegisterFile(
             self._rmap, write_delay=Sw, mirror_delay=V + b0 + 1 + Sw, status_delay=K + Sw,
-            groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)])
+            groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)], slots=M)
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
         # ``take`` (the bus's ready) from a register: it reaches the host bridge's
         # control, and decoded from the slot counter it was the 10-channel
@@ -326,13 +327,14 @@ class WindFarmReplay(wiring.Component):
         pipes = []
         reqs = []
         for p in range(P):
-            pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout)
+            pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout)
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)
             # a registered copy of the accept strobe for each pipeline
             acc_p = Signal(name=f"accept{p}")
             m.d.sync += acc_p.eq(accept)
-            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(scan[p] & credit)]
+            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(scan[p] & credit),
+                         pl.values.eq(regs.values[p])]
             for s in range(M):
                 ch = p * M + s
                 if ch < N:

@@ -158,6 +158,9 @@ class ReplayModel:
         self.run_start, self.run_count, self.run_crc = 0, 0, 0
         self._count_max = (1 << c.length_width) - 1
         self.crc_next = [0] * N
+        # whether BASE, LENGTH and CRC were each written since power-up: a
+        # SWAP is checked against values the host stated (docs/registers.md)
+        self._stated = [set() for _ in range(N)]
         self.check_crc = 0                 # POOL_CHECK_CRC (SDRAM pool)
         self.rejected = [0] * N
         self.overflow = 0
@@ -203,7 +206,8 @@ class ReplayModel:
             swap = fv("swap")
             if swap:
                 # taken only for the stream just written, whole and intact
-                swap = (self.run_start == self.base_next[l] and self.run_count == self.len_next[l]
+                swap = (self._stated[l] == {"BASE", "LENGTH", "CRC"}
+                        and self.run_start == self.base_next[l] and self.run_count == self.len_next[l]
                         and self.run_crc == self.crc_next[l])
                 self.rejected[l] = int(not swap)
             if not self.enable[l] and (swap or self.pending[l]):
@@ -212,6 +216,7 @@ class ReplayModel:
                 self.pending[l] = 1
         elif r.name == "LENGTH":
             self.len_next[l] = fv("length")
+            self._stated[l].add("LENGTH")
         elif r.name == "PHASE_INC":
             self.inc_next[l] = fv("inc")
         elif r.name == "GAIN":
@@ -226,8 +231,10 @@ class ReplayModel:
                 self.common_act = self.common_next
         elif r.name == "BASE":
             self.base_next[l] = fv("base")
+            self._stated[l].add("BASE")
         elif r.name == "CRC":
             self.crc_next[l] = fv("crc")
+            self._stated[l].add("CRC")
         elif r.name == "STREAM_ADDR":
             self.stream_addr = fv("addr")
             self.run_start, self.run_count, self.run_crc = self.stream_addr, 0, 0

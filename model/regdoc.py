@@ -82,7 +82,9 @@ While running (live reload, no torn period):
 The check at step 3: the block keeps, for the words written since the last
 STREAM_ADDR write, their start address, their count and their CRC-32
 (readable as STREAM_CRC and STREAM_COUNT), and takes a SWAP only if they are
-BASE[l], LENGTH[l] and CRC[l]. A word lost or damaged on the link, or
+BASE[l], LENGTH[l] and CRC[l], each written since power-up (or reset: the
+block keeps these three, with GAIN and PHASE_INC, in RAMs that no reset
+clears, `docs/tdm_engine.md`). A word lost or damaged on the link, or
 written elsewhere, refuses the switch instead of playing a wrong stream. So
 the SWAP of a stream comes after its words and before the next STREAM_ADDR
 write (`rast.model.loadplan.stream_writes` writes steps 1 and 2). A SWAP that

@@ -250,7 +250,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
             Register("CRC", base + 6, (Field("crc", 0, 32, "w", 0,
                                              "CRC-32 (zlib) of the stream for the next switch: a SWAP "
                                              "is taken only if it equals STREAM_CRC and BASE and LENGTH "
-                                             "are STREAM_ADDR's start and STREAM_COUNT; reads 0"),),
+                                             "are STREAM_ADDR's start and STREAM_COUNT, all three "
+                                             "written since power-up; reads 0"),),
                      "checked at the switch", ch),
         ]
     return RegisterMap(c, regs)

@@ -319,6 +319,32 @@ def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, 
     assert set(hi[L + k1 + 2 * R + 10:].tolist()) == {-250, -500, -750, -1000}
 
 
+@pytest.mark.parametrize("slots", [1, 3, 10])
+def test_a_swap_needs_base_length_and_crc_written_since_power_up(slots):
+    """An intact stream written again at its power-up base, with LENGTH and
+    CRC written but BASE left at its reset value (which equals the run's
+    start): refused, since BASE was not written (the register file's RAMs
+    are not reset, so the check takes only values the host wrote). Written,
+    the same SWAP is taken. Gateware and model equal."""
+    dut, inits, new, a, R = reload_bench(slots)
+    old = list(inits[0].words)
+    assert inits[0].base == 0
+    T = 2 * R + 200
+    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    k0, k1 = R + 10, R + 60
+    run = [(k0, "w", a("STREAM_ADDR"), 0)] + [(k0, "w", a("STREAM_DATA"), w) for w in old]
+    ops = run + [(k0, "w", a("LENGTH", 0), len(old)), (k0, "w", a("CRC", 0), stream_crc32(old)),
+                 (k0, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k0, "r", a("CTRL", 0), 0),
+                 (k0, "r", a("BASE", 0), 0),
+                 (k1, "w", a("BASE", 0), 0), (k1, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP),
+                 (k1, "r", a("CTRL", 0), 0), (T - 5, "r", a("CTRL", 0), 0)]
+    hi, hq, done, model = check(dut, inits, xi, xq, ops, name="unstated BASE")
+    reads = [v for k, kind, ad, v in done if kind == "r"]
+    assert reads[:2] == [CTRL_ENABLE | CTRL_REJECTED, 0], "BASE unwritten: the SWAP must be refused"
+    assert reads[2] in (CTRL_ENABLE | CTRL_SWAP, CTRL_ENABLE | CTRL_BANK), "BASE written: taken"
+    assert reads[3] == CTRL_ENABLE | CTRL_BANK
+
+
 @pytest.mark.parametrize("slots", [1, 2])
 def test_manifest_register_writes_place_echoes(slots):
     """A manifest (as `rast stream` writes it) loaded by register writes into a

@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from rast.hdl.channel_pipeline import ChannelPipeline, SlotInit   # noqa: E402
 from rast.hdl.delay_line import DelayLine                         # noqa: E402
-from rast.hdl.registers import channel_regs_layout               # noqa: E402
+from rast.hdl.registers import channel_regs_layout, slot_values_layout  # noqa: E402
 from rast.model.fixedpoint import ReplayContract                  # noqa: E402
 from rast.model.regmap import register_map                        # noqa: E402
 
@@ -48,12 +48,12 @@ class StreamAddressCheck(Elaboratable):
         D, M = c.pool_words, c.slots
         lo = c.min_stream_length
         inits = [SlotInit(s < c.channels, lo + s, 1 << 22, 5 + s) for s in range(M)]
-        dut = ChannelPipeline(c, 0, inits, channel_regs_layout(register_map(c)))
+        rmap = register_map(c)
+        dut = ChannelPipeline(c, 0, inits, channel_regs_layout(rmap), slot_values_layout(rmap))
         # elaborated here, so that its state ring (made in elaborate) can be named
         m.submodules.dut = dut.elaborate(platform)
         m.d.comb += Assume(~ResetSignal())
-        for s in range(M):
-            rg = dut.regs[s]
+        for rg in [*dut.regs, dut.values]:
             for name, field in rg.shape():
                 v = AnySeq(field.shape)
                 m.d.comb += getattr(rg, name).eq(v)
