@@ -135,8 +135,8 @@ class RegisterFile(wiring.Component):
     The stream check: the start address, count and CRC-32 of the STREAM_DATA
     words landed since the last STREAM_ADDR write are kept; a CTRL write's
     swap reaches the engine only if they equal the channel's BASE, LENGTH and
-    CRC as stored before it landed, and sets the channel's CTRL.rejected
-    otherwise (``docs/registers.md``; the model: ``ReplayModel.write``).
+    CRC as stored before it landed, each written since reset, and sets the
+    channel's CTRL.rejected otherwise (``docs/registers.md``; the model: ``ReplayModel.write``).
 
     Parameters
     ----------
