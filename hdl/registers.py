@@ -345,12 +345,7 @@ class RegisterFile(wiring.Component):
             lo_addr, hi_addr = min(r.addr for r in regs), max(r.addr for r in regs)
 
             def in_group(op):
-                inside = Const(1)
-                if lo_addr > 0:
-                    inside = inside & (op.addr >= lo_addr)
-                if hi_addr < (1 << len(op.addr)) - 1:
-                    inside = inside & (op.addr <= hi_addr)
-                return op.valid & op.write & (inside | (op.addr == apply_addr))
+                return op.valid & op.write & (_within(op.addr, lo_addr, hi_addr) | (op.addr == apply_addr))
             hit = decoded(in_group, 1, f"hit_{tag}")
             dcopy = landing(Mux(hit, before.data, 0), 32, f"land_data_{tag}")
             ap = landing(writes(apply_addr) & before.data[0], 1, f"land_apply_{tag}")
@@ -446,8 +441,7 @@ class RegisterFile(wiring.Component):
 
         def ram_register(op, members, offset):
             """The access ``op`` is to the register at ``offset`` of one of ``members``."""
-            lo, hi = ram_range(members)
-            return (op.addr >= lo) & (op.addr <= hi) & (op.addr[:stride_bits] == offset)
+            return _within(op.addr, *ram_range(members)) & (op.addr[:stride_bits] == offset)
 
         pre_slot = decoded(slot_at, slot_bits, "pre_slot")
         pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
@@ -457,8 +451,7 @@ class RegisterFile(wiring.Component):
         unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
         for g, members in enumerate(self._groups):
             lo, hi = ram_range(members)
-            in_group = decoded(lambda op: op.valid & op.write & (op.addr >= lo) & (op.addr <= hi), 1,
-                               f"ram_hit_g{g}")
+            in_group = decoded(lambda op: op.valid & op.write & _within(op.addr, lo, hi), 1, f"ram_hit_g{g}")
             w_slot = landing(Mux(in_group, pre_slot, 0), slot_bits, f"ram_slot_g{g}")
             w_onehot = landing(Mux(in_group, pre_onehot, 0), D, f"ram_slot_onehot_g{g}")
             # the engine's slot counter, and one a slot ahead (both registers)
@@ -702,6 +695,17 @@ class RegisterFile(wiring.Component):
             m.d.sync += nxt.eq(out)
             out = nxt
         return out
+
+
+def _within(addr, lo, hi):
+    """``lo <= addr <= hi``, without a comparison the address's width makes
+    constant (Verilator's lint refuses those)."""
+    inside = Const(1)
+    if lo > 0:
+        inside = inside & (addr >= lo)
+    if hi < (1 << len(addr)) - 1:
+        inside = inside & (addr <= hi)
+    return inside
 
 
 def _or(values):
