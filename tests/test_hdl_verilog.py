@@ -95,14 +95,20 @@ def test_manifest_baked_into_power_up_state(tmp_path):
     assert pool == words + [0] * (16 - n)                     # from address 0, in order, nothing else
 
     regs = modules["wind_farm_replay.regs"]
+    M = ReplayContract(channels=2, pool_words=16, max_delay=126, max_tap=2).slots
+
+    def ram_init(body, field, channel):
+        """Channel ``channel``'s word in its pipeline's RAM of ``field``
+        (rast.hdl.registers.RAM_FIELDS: channel p*M + s at word s of group p)."""
+        return _memory_init(body, f"ram_{field}_g{channel // M}")[channel % M]
     assert _reg_init(regs, "ctrl0_enable") == 1 and _reg_init(regs, "ctrl1_enable") == 0
-    assert _reg_init(regs, "gain0_gain") == gain and _reg_init(regs, "gain1_gain") == 0
+    assert ram_init(regs, "gain", 0) == gain and ram_init(regs, "gain", 1) == 0
     assert _reg_init(regs, "common_delay_delay") == delay - latency
     assert _reg_init(regs, "delay0_delay") == 0 and _reg_init(regs, "delay1_delay") == 0
-    assert _reg_init(regs, "length0_length") == n and _reg_init(regs, "base0_base") == 0
-    assert _reg_init(regs, "phase_inc0_inc") == increment and _reg_init(regs, "phase_inc1_inc") == 0
+    assert ram_init(regs, "length", 0) == n and ram_init(regs, "base", 0) == 0
+    assert ram_init(regs, "increment", 0) == increment and ram_init(regs, "increment", 1) == 0
 
     # Without the manifest every one of them powers up empty.
     plain = _modules(gv.verilog_text(2, pool_words=16, max_delay=126, max_tap=2))
     assert _memory_init(plain["wind_farm_replay.pool.bank0"]) == [0] * 16
-    assert _reg_init(plain["wind_farm_replay.regs"], "gain0_gain") == 0
+    assert ram_init(plain["wind_farm_replay.regs"], "gain", 0) == 0
