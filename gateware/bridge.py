@@ -30,6 +30,14 @@ class UARTBridge(wiring.Component):
         Clock cycles per UART bit.
     timeout : int
         Cycles without a received byte after which a partial frame is dropped.
+    ready_apart : bool
+        ``bus.ready`` is never high in two clocks running (the replay block
+        takes the bus once a period from M = 2 slots on). The bridge then
+        acts on the bus's ready, r_valid and r_data a clock late, from
+        registers of its own: its strobe stays high a clock after the take,
+        a clock in which ready is low. Those inputs come from the register
+        file across the device; straight into the bridge's state they were
+        among the 200 MHz builds' late paths (docs/bitstream.md).
 
     Members
     -------
@@ -40,7 +48,7 @@ class UARTBridge(wiring.Component):
         Frames executed (wraps), for a status LED or a test.
     """
 
-    def __init__(self, addr_width, divisor, timeout):
+    def __init__(self, addr_width, divisor, timeout, *, ready_apart=False):
         if not isinstance(addr_width, int) or isinstance(addr_width, bool) or not 1 <= addr_width <= 16:
             raise ValueError(f"Address width must be an integer in [1, 16], not {addr_width!r}")
         if not isinstance(timeout, int) or isinstance(timeout, bool) or timeout < 20 * divisor:
@@ -49,6 +57,7 @@ class UARTBridge(wiring.Component):
         self._addr_width = addr_width
         self._divisor = divisor
         self._timeout = timeout
+        self._ready_apart = bool(ready_apart)
         super().__init__({
             "rx": In(1, init=1),
             "tx": Out(1, init=1),
@@ -94,6 +103,12 @@ class UARTBridge(wiring.Component):
         w_data = Signal(32)
         m.d.comb += [bus.addr.eq(addr), bus.w_data.eq(w_data), bus.w_stb.eq(w_stb),
                      bus.r_stb.eq(r_stb)]
+        if self._ready_apart:
+            taken, r_valid, r_data = Signal(), Signal(), Signal(32)
+            m.d.sync += [taken.eq(bus.ready & (w_stb | r_stb)), r_valid.eq(bus.r_valid),
+                         r_data.eq(bus.r_data)]
+        else:
+            taken, r_valid, r_data = bus.ready, bus.r_valid, bus.r_data
 
         with m.FSM():
             with m.State("IDLE"):
@@ -139,19 +154,19 @@ class UARTBridge(wiring.Component):
                         m.d.sync += [w_stb.eq(1), w_data.eq(Cat(data[8:], byte))]
                         m.next = "WRITE"
             with m.State("WRITE"):                   # w_stb is high until the block takes it
-                with m.If(bus.ready):
+                with m.If(taken):
                     m.d.sync += [w_stb.eq(0), count.eq(count - 1)]
                     with m.If(count == 1):
                         m.next = "ACK"
                     with m.Else():
                         m.next = "DATA"
             with m.State("READ"):                    # r_stb is high until the block takes it
-                with m.If(bus.ready):
+                with m.If(taken):
                     m.d.sync += r_stb.eq(0)
                     m.next = "READ_DATA"
             with m.State("READ_DATA"):
-                with m.If(bus.r_valid):
-                    m.d.sync += data.eq(bus.r_data)
+                with m.If(r_valid):
+                    m.d.sync += data.eq(r_data)
                     m.next = "REPLY"
             with m.State("REPLY"):
                 m.d.comb += [txq.w_data.eq(data[:8]), txq.w_en.eq(1)]

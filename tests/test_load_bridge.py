@@ -20,15 +20,15 @@ from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract, pack_iq
 from rast.model.hostproto import (HostBridge, BRIDGE_ID, ProtocolError, encode_write, CMD_BURST,
                                   encode_read, encode_burst, group_writes, CMD_WRITE)
-from rast.model.regmap import ID_VALUE, register_map
+from rast.model.regmap import ID_VALUE, register_map, stream_crc32
 
 DIV = 4            # cycles per UART bit in simulation (the bridge's minimum)
 TIMEOUT = 400      # bridge frame timeout, cycles
 KW = dict(channels=2, pool_words=64, max_delay=60, max_tap=14)
 
 
-def make_system():
-    return ReplaySystem(100e6, divisor=DIV, timeout=TIMEOUT, **KW)
+def make_system(slots=1):
+    return ReplaySystem(100e6, divisor=DIV, timeout=TIMEOUT, slots=slots, **KW)
 
 
 def test_encoding():
@@ -41,21 +41,26 @@ def test_encoding():
         encode_write(0, -1)
 
 
-def test_version_id_and_registers():
-    sys_ = make_system()
+@pytest.mark.parametrize("slots", [1, 3])
+def test_version_id_and_registers(slots):
+    """From M = 2 the bridge sees the bus's ready and answers a clock late
+    (``UARTBridge(ready_apart=True)``): still every write taken once."""
+    sys_ = make_system(slots)
     uart = SimUART(sys_, DIV)
     br = HostBridge(uart)
     assert br.version() == BRIDGE_ID
     rmap = sys_.replay.register_map
     assert br.read(rmap.addr("ID")) == ID_VALUE
     c = read_contract(br)
-    assert c == ReplayContract(**KW)
+    assert c == ReplayContract(**KW, slots=slots)
     br.write(rmap.addr("GAIN", 1), 0x1ABCD)
     br.write(rmap.addr("DELAY", 1), 15)                     # clamped to max_tap (14)
     br.burst(rmap.addr("STREAM_DATA"), [1, 2, 3])
     assert br.read(rmap.addr("GAIN", 1)) == 0x1ABCD
     assert br.read(rmap.addr("DELAY", 1)) == KW["max_tap"]
     assert br.read(rmap.addr("STREAM_ADDR")) == 3           # the burst advanced the address
+    assert br.read(rmap.addr("STREAM_COUNT")) == 3          # ... by one word per word sent
+    assert br.read(rmap.addr("STREAM_CRC")) == stream_crc32([1, 2, 3])
 
 
 def test_garbage_and_timeout_resync():
