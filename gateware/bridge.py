@@ -83,13 +83,14 @@ class UARTBridge(wiring.Component):
         count = Signal(16)
         data = Signal(32)
         n = Signal(2)
+        # ``timed_out`` is ``idle == timeout``, from a register of its own (the
+        # 16-bit compare in front of the state was a 200 MHz build's worst path)
         idle = Signal(range(self._timeout + 1))
         timed_out = Signal()
         with m.If(stb):
-            m.d.sync += idle.eq(0)
+            m.d.sync += [idle.eq(0), timed_out.eq(0)]
         with m.Elif(~timed_out):
-            m.d.sync += idle.eq(idle + 1)
-        m.d.comb += timed_out.eq(idle == self._timeout)
+            m.d.sync += [idle.eq(idle + 1), timed_out.eq(idle == self._timeout - 1)]
 
         # Every bus output comes straight from a flip-flop: the bus fans out to
         # all channels' registers across the device (timing, see docs/bitstream.md).

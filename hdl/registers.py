@@ -449,7 +449,7 @@ class RegisterFile(wiring.Component):
         pre_slot = decoded(slot_at, slot_bits, "pre_slot")
         pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
                              D, "pre_slot_onehot")
-        ram_reads = []         # per group: field name -> fn(slot) -> the stored value
+        ram_reads = []         # per group: field name -> (fn(slot) -> the RAM's word, fresh bits, reset values)
         ram_raw = []           # per group: field name -> fn(slot) -> the RAM's word
         unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
         for g, members in enumerate(self._groups):
@@ -489,9 +489,7 @@ class RegisterFile(wiring.Component):
                     m.d.comb += rp.addr.eq(slot)
                     return rp.data
 
-                def read(slot, raw_read=raw_read, fresh=fresh, reset_of=reset_of):
-                    return Mux(fresh.bit_select(slot, 1), reset_of[slot], raw_read(slot))
-                reads[name], raw[name] = read, raw_read
+                reads[name], raw[name] = (raw_read, fresh, reset_of), raw_read
                 if name in SLOT_RAM_FIELDS:
                     # the engine's: whether the slot read next is unwritten
                     # since reset, and its reset value, a clock ahead, so that
@@ -635,14 +633,24 @@ class RegisterFile(wiring.Component):
                  (self._mirror_delay, lambda key, f: hooks_mirror.get(key)),
                  (self._status_delay, lambda key, f: hooks_status.get(key))]
         # RAM_FIELDS read back from their group's RAMs at the read's slot
-        # (from the stage before, registered), sampled with the stored values.
-        # From M = 2 the RAM is read a clock earlier, into a register: the
-        # access before the read was taken a period (M clocks) earlier and
-        # has landed by then, so the word is the one the stored values show
-        # at the sampling point (the RAM's read port and the selection in
-        # one clock were the 200 MHz build's worst path at seed 2, 7.4 ns).
-        early = int(c.slots >= 2 and wd >= 2)
+        # (from the stage before, registered), sampled with the stored values:
+        # the RAM's word, or the reset value while the slot's field is
+        # unwritten since reset. From M = 2 the RAM is read ``early`` clocks
+        # before the sampling point, into registers: the access before the
+        # read was taken a period (M clocks) earlier and has landed by then,
+        # so the word is the one the stored values show at the sampling
+        # point. Two clocks early (M >= 3), the RAM's word, the fresh bit and
+        # the reset value are registered, then selected into a register.
+        # (The RAM's read port and the selection in one clock were the 200
+        # MHz build's worst path at seed 2, 7.4 ns; read into one register,
+        # 6.7 ns.)
+        early = max(0, min(c.slots - 1, 2, wd - 1))
         ram_words = []
+
+        def reg(value, name):
+            q = Signal.like(value, name=name)
+            m.d.sync += q.eq(value)
+            return q
         for g, members in enumerate(self._groups):
             rd_slot = Signal(slot_bits, name=f"rd_slot_g{g}")
             m.d.sync += rd_slot.eq(slot_at(stage[wd - 1 - early]))
@@ -650,11 +658,14 @@ class RegisterFile(wiring.Component):
                 f = rmap.reg(reg_name, 0).field(field_name)
                 if f.access == "rw":
                     offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
-                    word = ram_reads[g][name](rd_slot)
+                    raw_read, fresh, reset_of = ram_reads[g][name]
+                    parts_of = [fresh.bit_select(rd_slot, 1), reset_of[rd_slot], raw_read(rd_slot)]
+                    if early == 2:
+                        parts_of = [reg(v, f"rd_{name}_{what}_g{g}")
+                                    for v, what in zip(parts_of, ("use_reset", "reset", "ram"))]
+                    word = Mux(*parts_of)
                     if early:
-                        word_q = Signal.like(word, name=f"rd_{name}_g{g}")
-                        m.d.sync += word_q.eq(word)
-                        word = word_q
+                        word = reg(word, f"rd_{name}_g{g}")
                     ram_words.append((f"{name}_g{g}",
                                       lambda op, members=members, offset=offset: ram_register(op, members, offset),
                                       (word.as_unsigned() << f.lsb)[:32]))
