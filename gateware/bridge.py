@@ -81,6 +81,10 @@ class UARTBridge(wiring.Component):
         cmd = Signal(8)
         addr = Signal(16)
         count = Signal(16)
+        # count == 1, a clock behind count: read only in WRITE, which a DATA
+        # byte (many clocks) separates from every change of count
+        count_one = Signal()
+        m.d.sync += count_one.eq(count == 1)
         data = Signal(32)
         n = Signal(2)
         # ``timed_out`` is ``idle == timeout``, from a register of its own (the
@@ -157,7 +161,7 @@ class UARTBridge(wiring.Component):
             with m.State("WRITE"):                   # w_stb is high until the block takes it
                 with m.If(taken):
                     m.d.sync += [w_stb.eq(0), count.eq(count - 1)]
-                    with m.If(count == 1):
+                    with m.If(count_one):
                         m.next = "ACK"
                     with m.Else():
                         m.next = "DATA"
@@ -170,9 +174,12 @@ class UARTBridge(wiring.Component):
                     m.d.sync += data.eq(r_data)
                     m.next = "REPLY"
             with m.State("REPLY"):
-                m.d.comb += [txq.w_data.eq(data[:8]), txq.w_en.eq(1)]
+                # the byte selected by n, the word held: the reply queue's
+                # readiness enables two bits, not the whole word (bridge.data
+                # was among the 200 MHz build's late endpoints)
+                m.d.comb += [txq.w_data.eq(data.word_select(n, 8)), txq.w_en.eq(1)]
                 with m.If(txq.w_rdy):
-                    m.d.sync += [data.eq(data >> 8), n.eq(n + 1)]
+                    m.d.sync += n.eq(n + 1)
                     with m.If(n == 3):
                         m.d.sync += [n.eq(0), self.frames.eq(self.frames + 1)]
                         m.next = "IDLE"
