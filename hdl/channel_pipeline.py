@@ -484,23 +484,14 @@ class ChannelPipeline(wiring.Component):
 
         # The ring: head -> [A] -> mid -> [B] -> ... -> head: from the update's
         # end back to the head M - 1 clocks (one at M = 1; the head is the last).
-        # From M = 3 the update's end is a register (``st_done``) in front of
-        # the rest of the ring: stage B's selection straight into the ring's
-        # LUT RAM was the 200 MHz build's worst path (st_ring, 6.9 ns).
         back = max(1, M - 1)
-        ring_in, done = nxt, []
-        if M >= 3:
-            ring_in = Signal(SL, init=init_at(2), name="st_done")
-            m.d.sync += ring_in.eq(nxt)
-            done = [ring_in]
-        first = 2 + len(done)
-        ring_inits = [init_at((j + first) % M) for j in range(back - len(done))]
-        last, regs = _ring_delay(m, ring_in, back - len(done), ring_inits, "st_ring")
+        ring_inits = [init_at((j + 2) % M) for j in range(back - 1)] + [init_at(0)]
+        last, regs = _ring_delay(m, nxt, back, ring_inits, "st_ring")
         m.d.comb += head.eq(last)
         #: Every slot's state in the ring's registers (for the formal checks):
-        #: the head and the others of a short ring, the update's end register
-        #: (M >= 3) and the state part of the update's second stage (M >= 2).
-        self.ring_states = done + regs + ([SL(mid.as_value()[:SL.size])] if M > 1 else [])
+        #: the head and the others of a short ring, and the state part of the
+        #: update's second stage (M >= 2).
+        self.ring_states = regs + ([SL(mid.as_value()[:SL.size])] if M > 1 else [])
 
         # Mirrors of pending and bank, per slot, from the completed update.
         bslot = _delay(m, vslot, self.update_stage, "bslot")
