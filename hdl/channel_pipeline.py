@@ -59,7 +59,7 @@ def _delay(m, sig, n, name, *, data=False):
 
 
 #: Address bits of the FIR coefficient ROM's second level (2**k first-level ROMs).
-COEF_ROM_SPLIT_BITS = 2
+COEF_ROM_SPLIT_BITS = 3
 
 #: The word cache in up to 2**k banks, by the slot's upper bits.
 CACHE_BANK_BITS = 2
@@ -673,9 +673,10 @@ class ChannelPipeline(wiring.Component):
                 rom_init[(p << TB) | k] = v
         # In logic, not a block RAM (the block RAMs are the pool's and the
         # delays'), and in two registered levels: ROMs of the address's low
-        # bits (a 7-input function per bit, one slice's LUT-mux tree), then a
-        # multiplexer of their outputs by the high bits. The whole 9-input ROM
-        # in one clock was the pipeline's worst path (7.9 ns).
+        # bits (a 6-input function per bit), then a multiplexer of their
+        # outputs by the high bits. The whole 9-input ROM in one clock was the
+        # pipeline's worst path (7.9 ns); 7-input ROMs, four LUTs in series,
+        # were still among the 200 MHz build's late endpoints (6.9 ns).
         addr_bits = TB + PB
         low_bits = addr_bits - COEF_ROM_SPLIT_BITS
         full = Cat(st.tap, st.cphase)
