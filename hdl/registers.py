@@ -132,7 +132,8 @@ class RegisterFile(wiring.Component):
     every part of the answer is the state between the same two steps; the
     answer is on ``r_data`` with ``r_valid`` ``read_latency`` cycles after t.
     With M >= 2 slots, ``take`` must be high at most once a period (M
-    clocks), as the engine's is: the read-back reads its RAMs a clock early.
+    clocks), as the engine's is: the read-back reads its RAMs up to two
+    clocks before it samples the other registers.
 
     The stream check: the start address, count and CRC-32 of the STREAM_DATA
     words landed since the last STREAM_ADDR write are kept; a CTRL write's
@@ -459,7 +460,6 @@ class RegisterFile(wiring.Component):
         pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
                              D, "pre_slot_onehot")
         ram_reads = []         # per group: field name -> (fn(slot) -> the RAM's word, fresh bits, reset values)
-        ram_raw = []           # per group: field name -> fn(slot) -> the RAM's word
         unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
         for g, members in enumerate(self._groups):
             # the group's landing decode: APPLY is in it too, but its offset
@@ -471,7 +471,7 @@ class RegisterFile(wiring.Component):
             r_slot = Signal(range(D), init=S - 1, name=f"ram_rslot_g{g}")
             r_ahead = Signal(range(D), init=0, name=f"ram_rslot_ahead_g{g}")
             m.d.sync += [r_slot.eq(r_ahead), r_ahead.eq(Mux(r_ahead == S - 1, 0, r_ahead + 1))]
-            reads, raw, fresh_of = {}, {}, {}
+            reads, fresh_of = {}, {}
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
                 width = rmap.reg(reg_name, 0).field(field_name).width
@@ -498,7 +498,7 @@ class RegisterFile(wiring.Component):
                     m.d.comb += rp.addr.eq(slot)
                     return rp.data
 
-                reads[name], raw[name] = (raw_read, fresh, reset_of), raw_read
+                reads[name] = (raw_read, fresh, reset_of)
                 if name in SLOT_RAM_FIELDS:
                     # the engine's: whether the slot read next is unwritten
                     # since reset, and its reset value, a clock ahead, so that
@@ -509,7 +509,6 @@ class RegisterFile(wiring.Component):
                                  reset_value.eq(reset_of[r_ahead]),
                                  self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
             ram_reads.append(reads)
-            ram_raw.append(raw)
             unstated.append(fresh_of["base"] | fresh_of["length"] | fresh_of["crc"])
 
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
@@ -533,10 +532,10 @@ class RegisterFile(wiring.Component):
             m_hit = Signal(name=f"match_hit_g{g}")
             src = stage[wd - stages - 1]
             m.d.sync += [m_slot.eq(slot_at(src)), m_hit.eq(ram_register(src, members, ctrl_offset))]
-            raw = ram_raw[g]
-            parts = Cat(equal_parts(run_start, raw["base"](m_slot)),
-                        equal_parts(run_count, raw["length"](m_slot)),
-                        equal_parts(~run_crc, raw["crc"](m_slot)))
+            raw = {name: ram_reads[g][name][0](m_slot) for name in ("base", "length", "crc")}
+            parts = Cat(equal_parts(run_start, raw["base"]),
+                        equal_parts(run_count, raw["length"]),
+                        equal_parts(~run_crc, raw["crc"]))
             stated = ~unstated[g].bit_select(m_slot, 1)
             if stages == 2:
                 parts_q = Signal(len(parts), name=f"match_parts_g{g}")
