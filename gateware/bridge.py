@@ -57,7 +57,9 @@ class UARTBridge(wiring.Component):
         self._addr_width = addr_width
         self._divisor = divisor
         self._timeout = timeout
-        self._ready_apart = bool(ready_apart)
+        if not isinstance(ready_apart, bool):
+            raise TypeError(f"Ready apart must be a bool, not {ready_apart!r}")
+        self._ready_apart = ready_apart
         super().__init__({
             "rx": In(1, init=1),
             "tx": Out(1, init=1),

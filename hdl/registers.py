@@ -1,6 +1,6 @@
 """Memory-mapped register file, generated from ``rast.model.regmap``."""
 
-from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array
+from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array, Value
 from amaranth.lib import wiring, data
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
@@ -656,11 +656,6 @@ class RegisterFile(wiring.Component):
         # 6.7 ns.)
         early = max(0, min(c.slots - 1, 2, wd - 1))
         ram_words = []
-
-        def reg(value, name):
-            q = Signal.like(value, name=name)
-            m.d.sync += q.eq(value)
-            return q
         for g, members in enumerate(self._groups):
             rd_slot = Signal(slot_bits, name=f"rd_slot_g{g}")
             m.d.sync += rd_slot.eq(slot_at(stage[wd - 1 - early]))
@@ -671,11 +666,11 @@ class RegisterFile(wiring.Component):
                     raw_read, fresh, reset_of = ram_reads[g][name]
                     parts_of = [fresh.bit_select(rd_slot, 1), reset_of[rd_slot], raw_read(rd_slot)]
                     if early == 2:
-                        parts_of = [reg(v, f"rd_{name}_{what}_g{g}")
+                        parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}")
                                     for v, what in zip(parts_of, ("use_reset", "reset", "ram"))]
                     word = Mux(*parts_of)
                     if early:
-                        word = reg(word, f"rd_{name}_g{g}")
+                        word = landing(word, word.shape(), f"rd_{name}_g{g}")
                     ram_words.append((f"{name}_g{g}",
                                       lambda op, members=members, offset=offset: ram_register(op, members, offset),
                                       (word.as_unsigned() << f.lsb)[:32]))
