@@ -12,6 +12,8 @@ for cocotb and Verilator) and to vendor primitives on an ECP5 platform:
   output is registered inside the block RAM.
 * :class:`RegisteredMultiplier`: a signed product registered in the
   ``MULT18X18D`` output register (``REG_OUTPUT_CLK="CLK0"``).
+* :func:`kept_register`: a register that synthesis keeps as a copy of its
+  own (``TRELLIS_FF`` instances), for fan-out trees.
 
 Why (measured, ``docs/bitstream.md``, "Why the block RAMs and multipliers are
 instantiated"): Yosys did not place a following fabric register into these
@@ -21,12 +23,13 @@ primitives' registers, and the unregistered paths (block RAM clock-to-out
 reached 202 MHz.
 """
 
-from amaranth.hdl import Module, Signal, Const, Cat, ClockSignal, ResetSignal, Instance, signed, unsigned
+from amaranth.hdl import Module, Signal, Value, Const, Cat, ClockSignal, ResetSignal, Instance, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["RegisteredRAM", "RegisteredMultiplier", "is_ecp5", "dp16kd_mode", "DP16KD_MODES"]
+__all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "is_ecp5", "dp16kd_mode",
+           "DP16KD_MODES"]
 
 #: DP16KD data widths and depths (single port of the pair), widest last.
 DP16KD_MODES = ((1, 16384), (2, 8192), (4, 4096), (9, 2048), (18, 1024))
@@ -38,6 +41,30 @@ def is_ecp5(platform) -> bool:
     """Whether ``platform`` is an ECP5 (Amaranth's ``LatticeECP5Platform``, or
     anything with ``family == "ecp5"``, e.g. a stand-in in tests)."""
     return platform is not None and getattr(platform, "family", None) == "ecp5"
+
+
+def kept_register(m, platform, value, name):
+    """``value`` one clock later, in a register of its own (not reset).
+
+    Copies of one register that differ in nothing are one register to Yosys
+    (its ``opt_merge`` merges flip-flops with the same inputs; a ``keep``
+    attribute on the signal does not stop it, only one on the cell, which
+    Amaranth cannot set on a ``$dff``). A fan-out tree of such copies, each
+    placed beside the block RAMs it feeds, needs them kept apart, so on ECP5
+    each bit is a ``TRELLIS_FF`` instance, which Yosys does not merge; on
+    other platforms a plain register.
+    """
+    value = Value.cast(value)
+    q = Signal(len(value), name=name, reset_less=True)
+    if not is_ecp5(platform):
+        m.d.sync += q.eq(value)
+        return q
+    for k in range(len(value)):
+        m.submodules[f"{name}_ff{k}"] = Instance(
+            "TRELLIS_FF", p_GSR="DISABLED", p_CEMUX="1", p_CLKMUX="CLK", p_LSRMUX="LSR",
+            p_REGSET="RESET", p_SRMODE="LSR_OVER_CE",
+            i_CLK=ClockSignal("sync"), i_LSR=Const(0), i_DI=value[k], o_Q=q[k])
+    return q
 
 
 def dp16kd_mode(width: int, depth: int):

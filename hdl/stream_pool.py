@@ -1,10 +1,10 @@
 """The stream pool: one memory for every channel's stream, read by tagged fetches."""
 
-from amaranth.hdl import Module, Signal
+from amaranth.hdl import Module, Signal, Cat, Mux
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from .ecp5_primitives import RegisteredRAM
+from .ecp5_primitives import RegisteredRAM, kept_register
 from ..model.fixedpoint import STREAM_WIDTH, POOL_BANK_WORDS
 
 __all__ = ["StreamPool"]
@@ -38,6 +38,9 @@ class StreamPool(wiring.Component):
     d_valid : Out(1), d_tag : Out(tag_width), d_data : Out(32)
     """
 
+    #: Block-RAM slices (bits) per kept copy of a bank's read address.
+    GROUP_BITS = 8
+
     def __init__(self, words, tag_width, init=()):
         if not (isinstance(words, int) and not isinstance(words, bool) and 16 <= words
                 and (words % POOL_BANK_WORDS == 0 if words > POOL_BANK_WORDS else not words & (words - 1))):
@@ -60,43 +63,77 @@ class StreamPool(wiring.Component):
 
     @property
     def latency(self):
-        """Clocks from ``r_valid`` to ``d_valid``: the RAM's 3 (address
-        register, read, output register), plus the bank multiplexer's."""
-        return 3 + (self._banks > 1)
+        """Clocks from ``r_valid`` to ``d_valid``: one bank, the RAM's 3
+        (address register, read, output register); several, 6 (the
+        address's two register levels, read, output register, the group's
+        data register, the bank multiplexer)."""
+        return 3 if self._banks == 1 else 6
 
     def elaborate(self, platform):
         m = Module()
-        BW = self._bank_words
-        bank_bits = (BW - 1).bit_length()
-        rams = []
-        for b in range(self._banks):
-            ram = RegisteredRAM(2 * STREAM_WIDTH, BW, init=self._init[b * BW:(b + 1) * BW],
-                                addr_reg=True)
-            m.submodules[f"bank{b}"] = ram
-            hit = self.w_addr[bank_bits:] == b
-            m.d.comb += [ram.w_en.eq(self.w_en & hit), ram.w_addr.eq(self.w_addr[:bank_bits]),
-                         ram.w_data.eq(self.w_data), ram.r_en.eq(1),
-                         ram.r_addr.eq(self.r_addr[:bank_bits])]
-            rams.append(ram)
-        # Valid, tag and bank follow the read through the RAM's three stages.
         L = self.latency
         valid = [self.r_valid] + [Signal(name=f"valid{k}") for k in range(1, L + 1)]
         tag = [self.r_tag] + [Signal.like(self.r_tag, name=f"tag{k}") for k in range(1, L + 1)]
-        hi = self.r_addr[bank_bits:]
-        bank = [hi] + [Signal(len(hi), name=f"bank{k}") for k in range(1, 4)]
         for k in range(1, L + 1):
             m.d.sync += [valid[k].eq(valid[k - 1]), tag[k].eq(tag[k - 1])]
-        if self._banks > 1:
-            for k in range(1, 4):
-                m.d.sync += bank[k].eq(bank[k - 1])
-        if self._banks == 1:
-            m.d.comb += self.d_data.eq(rams[0].r_data)
-        else:
-            with m.Switch(bank[3]):
-                for b, ram in enumerate(rams):
-                    with m.Case(b):
-                        m.d.sync += self.d_data.eq(ram.r_data)
-                with m.Default():
-                    m.d.sync += self.d_data.eq(0)
         m.d.comb += [self.d_valid.eq(valid[L]), self.d_tag.eq(tag[L])]
+        if self._banks == 1:
+            m.submodules.bank0 = ram = RegisteredRAM(2 * STREAM_WIDTH, self._words, init=self._init,
+                                                     addr_reg=True)
+            m.d.comb += [ram.w_en.eq(self.w_en), ram.w_addr.eq(self.w_addr), ram.w_data.eq(self.w_data),
+                         ram.r_en.eq(1), ram.r_addr.eq(self.r_addr), self.d_data.eq(ram.r_data)]
+            return m
+        self._elaborate_banks(m, platform, valid)
         return m
+
+    def _elaborate_banks(self, m, platform, valid):
+        """Banks of width-sliced RAMs behind register trees.
+
+        A bank's 32 slices of 16384 x 1 are spread over the block-RAM rows,
+        and five banks fill most of the device's block RAMs. So nothing
+        reaches them straight from one register: the read address and the
+        write's enable, address and data go to a register per bank (loaded
+        only by an access of that bank: the copies differ, so synthesis
+        keeps them), then to a kept copy per group of GROUP_BITS slices
+        (:func:`kept_register`), each free to sit beside its group. A
+        group's read data goes to a register of its own, zero unless the
+        read was of its bank, and the word is the OR of the banks' groups.
+        A write reaches the RAMs a clock before a read presented with it,
+        as with one bank."""
+        BW = self._bank_words
+        bank_bits = (BW - 1).bit_length()
+        W = 2 * STREAM_WIDTH
+        r_bank, w_bank = self.r_addr[bank_bits:], self.w_addr[bank_bits:]
+        # the read's bank along the pipeline: hit[k][b], "the read k clocks ago was of bank b"
+        hit = [[valid[0] & (r_bank == b) for b in range(self._banks)]]
+        for k in range(1, 5):
+            hit.append([Signal(name=f"hit{k}_bank{b}") for b in range(self._banks)])
+            m.d.sync += [h.eq(p) for h, p in zip(hit[k], hit[k - 1])]
+        words = []
+        for b in range(self._banks):
+            ra = Signal(bank_bits, name=f"r_addr_bank{b}", reset_less=True)
+            wa = Signal(bank_bits, name=f"w_addr_bank{b}", reset_less=True)
+            wd = Signal(W, name=f"w_data_bank{b}", reset_less=True)
+            we = Signal(name=f"w_en_bank{b}")
+            w_hit = self.w_en & (w_bank == b)
+            m.d.sync += we.eq(w_hit)
+            with m.If(hit[0][b]):
+                m.d.sync += ra.eq(self.r_addr[:bank_bits])
+            with m.If(w_hit):
+                m.d.sync += [wa.eq(self.w_addr[:bank_bits]), wd.eq(self.w_data)]
+            # the write's copies a clock before the read's: the write is at
+            # the RAM a clock ahead of a read presented in the same clock
+            word = []
+            for g in range(0, W, self.GROUP_BITS):
+                gw = min(self.GROUP_BITS, W - g)
+                name = f"bank{b}_bits{g}"
+                ram = RegisteredRAM(gw, BW, init=[(w >> g) & ((1 << gw) - 1)
+                                                  for w in self._init[b * BW:(b + 1) * BW]])
+                m.submodules[name] = ram
+                m.d.comb += [ram.w_en.eq(we), ram.w_addr.eq(wa), ram.w_data.eq(wd[g:g + gw]),
+                             ram.r_en.eq(1), ram.r_addr.eq(kept_register(m, platform, ra, f"{name}_r_addr"))]
+                data = Signal(gw, name=f"{name}_data", reset_less=True)
+                m.d.sync += data.eq(Mux(hit[4][b], ram.r_data, 0))
+                word.append(data)
+            words.append(Cat(*word))
+        m.d.sync += self.d_data.eq(Cat(*[Cat(*[w[i] for w in words]).any() for i in range(W)]))

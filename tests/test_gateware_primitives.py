@@ -15,7 +15,8 @@ import pytest
 from amaranth.back import rtlil
 from amaranth.sim import Simulator
 
-from rast.hdl.ecp5_primitives import (RegisteredRAM, RegisteredMultiplier, dp16kd_mode, is_ecp5)
+from rast.hdl.ecp5_primitives import (RegisteredRAM, RegisteredMultiplier, dp16kd_mode, is_ecp5,
+                                      kept_register)
 
 
 class FakeECP5:
@@ -135,6 +136,50 @@ def test_multiplier_ecp5_structure():
     assert "$mul" not in text
     text = _rtlil(RegisteredMultiplier(18, 17, input_reg=True), FakeECP5())
     assert 'parameter \\REG_INPUTA_CLK "CLK0"' in text and 'parameter \\REG_INPUTB_CLK "CLK0"' in text
+
+
+@pytest.mark.parametrize("kept", [False, True])
+def test_kept_register_copies_survive_synthesis(kept, tmp_path):
+    """Four registers of one 8-bit value, each read by different logic, through
+    synth_ecp5: plain registers are merged into one (which is why a fan-out
+    tree needs :func:`kept_register`), kept ones stay four."""
+    import subprocess
+    from amaranth.hdl import Module, Signal
+    from rast.gateware.build import tool_env, parse_yosys_stat
+    m = Module()
+    a, o = Signal(8), Signal(8)
+    if kept:
+        copies = [kept_register(m, FakeECP5(), a, f"copy{k}") for k in range(4)]
+    else:
+        copies = [Signal(8, name=f"copy{k}") for k in range(4)]
+        m.d.sync += [c.eq(a) for c in copies]
+    m.d.comb += o.eq(copies[0] ^ (copies[1] + copies[2]) ^ (copies[3] - 1))
+    (tmp_path / "top.il").write_text(rtlil.convert(m, ports=[a, o]))
+    env = tool_env()
+    subprocess.run([env["YOSYS"], "-q", "-l", "top.rpt", "-p", "read_rtlil top.il; synth_ecp5 -top top; stat"],
+                   cwd=tmp_path, env=env, check=True, capture_output=True)
+    assert parse_yosys_stat((tmp_path / "top.rpt").read_text())["TRELLIS_FF"] == (32 if kept else 8)
+
+
+def test_kept_register_behaviour():
+    """Off ECP5 a kept register is a plain one: the value one clock later."""
+    from amaranth.hdl import Module, Signal
+    m = Module()
+    a = Signal(6)
+    q = kept_register(m, None, a, "q")
+    seen = []
+
+    async def bench(ctx):
+        for v in range(20):
+            ctx.set(a, v * 7 % 64)
+            await ctx.tick()
+            seen.append(ctx.get(q))
+
+    sim = Simulator(m)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    assert seen == [v * 7 % 64 for v in range(20)]
 
 
 def test_parameter_errors():

@@ -15,7 +15,7 @@ from rast.hdl.replay_top import WindFarmReplay
 from rast.model.powerup import ChannelInit
 from rast.hdl.iq import IQ
 from rast.model import datapath as dp
-from rast.model.fixedpoint import pack_iq, unpack_iq, PHASE_FRAC_BITS, ReplayContract
+from rast.model.fixedpoint import pack_iq, unpack_iq, PHASE_FRAC_BITS, POOL_BANK_WORDS, ReplayContract
 
 ONE = 1 << PHASE_FRAC_BITS
 
@@ -57,6 +57,61 @@ def test_stream_pool_parameters():
     with pytest.raises(ValueError, match=r"^Pool words must be a power of two from 16 to 16384 or a "
                                          r"multiple of 16384, not 48$"):
         StreamPool(48, 4)
+
+
+@pytest.mark.parametrize("words", [64, 3 * POOL_BANK_WORDS])
+def test_stream_pool_reads_and_writes(words):
+    """Random reads and writes (some of the address written in the same clock,
+    many in the last words of one bank and the first of the next) against a
+    dictionary: each fetch's word and tag come back ``latency`` clocks later,
+    a write is visible to a read presented with it, an address beyond the
+    pool reads 0 and is not written, and ``d_valid`` is high only for fetches."""
+    init = [(k * 0x9E3779B9) & 0xFFFFFFFF for k in range(37)]
+    dut = StreamPool(words, 5, init=init)
+    aw = len(dut.r_addr)
+    mem = dict(enumerate(init))
+    rng = np.random.default_rng(words)
+    hot = [a % (1 << aw) for b in range(1, words // POOL_BANK_WORDS + 1)
+           for a in range(b * POOL_BANK_WORDS - 3, b * POOL_BANK_WORDS + 3)] or list(range(words))
+    expected, got = [], []
+
+    def addr():
+        return int(rng.choice(hot)) if rng.random() < 0.5 else int(rng.integers(0, 1 << aw))
+
+    async def bench(ctx):
+        for cycle in range(1500 + dut.latency):
+            if cycle < 1500:
+                we, re_ = rng.random() < 0.4, rng.random() < 0.6
+                wa, wd, ra, tag = addr(), int(rng.integers(0, 1 << 32)), addr(), int(rng.integers(0, 32))
+                if rng.random() < 0.15:
+                    ra = wa
+                ctx.set(dut.w_en, we); ctx.set(dut.w_addr, wa); ctx.set(dut.w_data, wd)
+                ctx.set(dut.r_valid, re_); ctx.set(dut.r_addr, ra); ctx.set(dut.r_tag, tag)
+                if we and wa < words:
+                    mem[wa] = wd
+                if re_:
+                    expected.append((cycle + dut.latency, tag, mem.get(ra, 0) if ra < words else 0))
+            else:
+                ctx.set(dut.w_en, 0); ctx.set(dut.r_valid, 0)
+            if ctx.get(dut.d_valid):
+                got.append((cycle, ctx.get(dut.d_tag), ctx.get(dut.d_data)))
+            await ctx.tick()
+
+    simulate(dut, bench)
+    assert len(expected) > 800
+    assert got == expected
+
+
+def test_stream_pool_ecp5_register_trees():
+    """A pool of several banks on ECP5: each group of GROUP_BITS slices has a
+    read address of its own in kept flip-flops (so synthesis cannot merge
+    the copies back into one register that drives every block RAM)."""
+    from amaranth.back import rtlil
+    banks = 5
+    text = rtlil.convert(StreamPool(banks * POOL_BANK_WORDS, 4), platform=type("ECP5", (), {"family": "ecp5"})())
+    groups = banks * 32 // StreamPool.GROUP_BITS
+    assert text.count("cell \\DP16KD") == banks * 32
+    assert text.count("cell \\TRELLIS_FF") == groups * (POOL_BANK_WORDS - 1).bit_length()
 
 
 @pytest.mark.parametrize("args, exc, msg", [
