@@ -9,6 +9,7 @@ from .iq import IQ
 from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
+from .ecp5_primitives import kept_register
 from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
@@ -330,9 +331,9 @@ class WindFarmReplay(wiring.Component):
             pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout)
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)
-            # a registered copy of the accept strobe for each pipeline
-            acc_p = Signal(name=f"accept{p}")
-            m.d.sync += acc_p.eq(accept)
+            # a registered copy of the accept strobe for each pipeline (kept:
+            # equal registers are one to Yosys)
+            acc_p = kept_register(m, platform, accept, f"accept{p}", reset=True)
             m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(scan[p] & credit),
                          pl.values.eq(regs.values[p])]
             for s in range(M):
@@ -340,10 +341,12 @@ class WindFarmReplay(wiring.Component):
                 if ch < N:
                     m.d.comb += [pl.regs[s].eq(regs.regs[ch]), regs.cmd_ack[ch].eq(pl.cmd_ack[s]),
                                  regs.pending[ch].eq(pl.pending[s]), regs.bank[ch].eq(pl.bank[s])]
+            # each pipeline's copy of the answer, kept (one merged copy wrote
+            # every pipeline's caches: 896 loads on each tag bit at 64 channels)
             fe = Signal(name=f"fill_en{p}")
-            ft = Signal(ptag, name=f"fill_tag{p}")
-            fd = Signal.like(fill_data, name=f"fill_data{p}")
-            m.d.sync += [fe.eq(fill_valid & (fill_tag.pipe == p)), ft.eq(fill_tag.fetch), fd.eq(fill_data)]
+            ft = kept_register(m, platform, fill_tag.fetch, f"fill_tag{p}")
+            fd = kept_register(m, platform, fill_data, f"fill_data{p}")
+            m.d.sync += fe.eq(fill_valid & (fill_tag.pipe == p))
             m.d.comb += [pl.fill_en.eq(fe), pl.fill_tag.eq(ft), pl.fill_data.eq(fd)]
             reqs.append(pl)
         # Only the offered pipeline asks: the requests are ORed, registered.

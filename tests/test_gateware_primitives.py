@@ -149,7 +149,7 @@ def test_kept_register_copies_survive_synthesis(kept, tmp_path):
     m = Module()
     a, o = Signal(8), Signal(8)
     if kept:
-        copies = [kept_register(m, FakeECP5(), a, f"copy{k}") for k in range(4)]
+        copies = [kept_register(m, FakeECP5(), a, f"copy{k}", reset=k % 2 == 1) for k in range(4)]
     else:
         copies = [Signal(8, name=f"copy{k}") for k in range(4)]
         m.d.sync += [c.eq(a) for c in copies]
@@ -161,17 +161,21 @@ def test_kept_register_copies_survive_synthesis(kept, tmp_path):
     assert parse_yosys_stat((tmp_path / "top.rpt").read_text())["TRELLIS_FF"] == (32 if kept else 8)
 
 
-def test_kept_register_behaviour():
-    """Off ECP5 a kept register is a plain one: the value one clock later."""
-    from amaranth.hdl import Module, Signal
+@pytest.mark.parametrize("reset", [False, True])
+def test_kept_register_behaviour(reset):
+    """Off ECP5 a kept register is a plain one: the value one clock later,
+    cleared by the domain's reset only with ``reset``."""
+    from amaranth.hdl import Module, Signal, ResetSignal
     m = Module()
-    a = Signal(6)
-    q = kept_register(m, None, a, "q")
+    a, rst = Signal(6), Signal()
+    q = kept_register(m, None, a, "q", reset=reset)
+    m.d.comb += ResetSignal().eq(rst)
     seen = []
 
     async def bench(ctx):
-        for v in range(20):
+        for v in range(1, 21):
             ctx.set(a, v * 7 % 64)
+            ctx.set(rst, v == 9)
             await ctx.tick()
             seen.append(ctx.get(q))
 
@@ -179,7 +183,7 @@ def test_kept_register_behaviour():
     sim.add_clock(1e-8)
     sim.add_testbench(bench)
     sim.run()
-    assert seen == [v * 7 % 64 for v in range(20)]
+    assert seen == [0 if reset and v == 9 else v * 7 % 64 for v in range(1, 21)]
 
 
 def test_parameter_errors():
