@@ -6,6 +6,7 @@ nextpnr and ecppack and checks its report.
 """
 
 import json
+import re
 import subprocess
 import sys
 
@@ -56,6 +57,9 @@ def test_elaborates_for_ecp5(tmp_path, board, device):
     lpf = (tmp_path / "rast_top.lpf").read_text()
     assert il.count("cell \\IDDRX1F") == 16 and il.count("cell \\ODDRX1F") == 16 + 3
     assert "cell \\EHXPLLL" in il
+    # the core's reset on a global network: a DCCA drives it
+    dcca = re.search(r"cell \\DCCA \S+\n(.*?)\n  end", il, re.S).group(1)
+    assert re.search(r"connect \\CLKO \\rst$", dcca, re.M), dcca
     # one pipeline of 10 slots serves both channels: 4 complex + 2 gain + the
     # FIR's 2 MAC and 2 linear-step multipliers
     assert il.count("cell \\MULT18X18D") == 10
@@ -193,7 +197,6 @@ def test_sdram_board_top_elaborates(tmp_path):
     pads raw), the SDRAM clock at F19 from an ODDRX1F with D0 = 1, D1 = 0 on
     the 90° PLL output, the ESP32's GPIO0 high, the core's Verilog beside the
     design, both clocks and the SDRAM's words in the report."""
-    import re
     cfg = BuildConfig(channels=10, sample_rate_mhz=10, clock_mhz=100, pool="sdram")
     rep = build(cfg, tmp_path, quiet=True, run_tools=False)
     il = (tmp_path / "rast_top.il").read_text()
