@@ -97,6 +97,13 @@ class RegisteredRAM(wiring.Component):
     read-before-write across ports), so a design must not rely on it
     (docs/netlist_sim.md).
 
+    With ``continuous`` there is no ``r_en``: every clock reads, and the
+    block RAMs' clock enables are tied high. ``r_data`` is then not held at
+    0 until the read stage is loaded (0 in reset, then what the read stage
+    holds), so there is no "primed" flip-flop, which Yosys merges across
+    RAMs into one driving every block RAM's output enable (the pool's worst
+    path, 8.5 ns, in a 10-channel build).
+
     Parameters
     ----------
     width, depth : int
@@ -108,14 +115,16 @@ class RegisteredRAM(wiring.Component):
     block_ram : bool
         On ECP5, DP16KD primitives (default); ``False`` leaves a small memory
         to Yosys (distributed RAM for a few dozen words).
+    continuous : bool
+        Read every clock (no ``r_en``).
 
     Members
     -------
     w_en : In(1), w_addr : In(range(depth)), w_data : In(width)
-    r_en : In(1), r_addr : In(range(depth)), r_data : Out(width)
+    r_en : In(1) (not with ``continuous``), r_addr : In(range(depth)), r_data : Out(width)
     """
 
-    def __init__(self, width, depth, init=(), *, addr_reg=False, block_ram=True):
+    def __init__(self, width, depth, init=(), *, addr_reg=False, block_ram=True, continuous=False):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"RAM width must be a positive integer, not {width!r}")
         if not isinstance(depth, int) or isinstance(depth, bool) or depth < 2:
@@ -125,11 +134,15 @@ class RegisteredRAM(wiring.Component):
         self._width, self._depth, self._init = width, depth, list(init)
         if not isinstance(block_ram, bool):
             raise TypeError(f"Block RAM must be a bool, not {block_ram!r}")
+        if not isinstance(continuous, bool):
+            raise TypeError(f"Continuous must be a bool, not {continuous!r}")
         self._addr_reg = addr_reg
         self._block_ram = block_ram
+        self._continuous = continuous
         super().__init__({
             "w_en": In(1), "w_addr": In(range(depth)), "w_data": In(width),
-            "r_en": In(1), "r_addr": In(range(depth)), "r_data": Out(width),
+            **({} if continuous else {"r_en": In(1)}),
+            "r_addr": In(range(depth)), "r_data": Out(width),
         })
 
     @property
@@ -140,20 +153,26 @@ class RegisteredRAM(wiring.Component):
     def latency(self):
         return 3 if self._addr_reg else 2
 
+    def _read_enable(self):
+        return Const(1) if self._continuous else self.r_en
+
     def _read_front(self, m):
         """The read address as the RAM sees it, and ``primed``: the read stage holds
         a word read from memory (so ``r_data`` may load)."""
         ra = self.r_addr
+        r_en = self._read_enable()
+        if self._addr_reg:
+            ra = Signal.like(self.r_addr, name="r_addr_q")
+            with m.If(r_en):
+                m.d.sync += ra.eq(self.r_addr)
+        if self._continuous:
+            return ra, Const(1)
         fill = Signal(range(self.latency))           # enabled cycles seen, saturating
         primed = Signal()                            # == (fill == latency - 1), as a flip-flop:
         with m.If(self.r_en & ~primed):              # it fans out to every slice's OCE
             m.d.sync += fill.eq(fill + 1)
             with m.If(fill == self.latency - 2):
                 m.d.sync += primed.eq(1)
-        if self._addr_reg:
-            ra = Signal.like(self.r_addr, name="r_addr_q")
-            with m.If(self.r_en):
-                m.d.sync += ra.eq(self.r_addr)
         return ra, primed
 
     @property
@@ -175,9 +194,10 @@ class RegisteredRAM(wiring.Component):
         wr = mem.write_port()
         rd = mem.read_port(domain="sync")
         r_addr, primed = self._read_front(m)
+        r_en = self._read_enable()
         m.d.comb += [wr.en.eq(self.w_en), wr.addr.eq(self.w_addr), wr.data.eq(self.w_data),
-                     rd.en.eq(self.r_en), rd.addr.eq(r_addr)]
-        with m.If(self.r_en & primed):
+                     rd.en.eq(r_en), rd.addr.eq(r_addr)]
+        with m.If(r_en & primed):
             m.d.sync += self.r_data.eq(rd.data)
         return m
 
@@ -196,8 +216,9 @@ class RegisteredRAM(wiring.Component):
         # taken in docs/netlist_sim.md); without it a reset while the read stage
         # is not primed left the old word on r_data (the netlist cosimulation,
         # tests/test_netlist_ram.py, showed it).
+        r_en = self._read_enable()
         oce = Signal()
-        m.d.comb += oce.eq((self.r_en & primed) | ResetSignal("sync"))
+        m.d.comb += oce.eq(1 if self._continuous else (r_en & primed) | ResetSignal("sync"))
         padded_w = Signal(slices * w)
         padded_r = Signal(slices * w)
         m.d.comb += [padded_w.eq(self.w_data), self.r_data.eq(padded_r)]
@@ -226,7 +247,7 @@ class RegisteredRAM(wiring.Component):
                 p_GSR="DISABLED",
                 i_CLKA=ClockSignal("sync"), i_CEA=Const(1), i_OCEA=Const(1), i_WEA=self.w_en,
                 i_RSTA=Const(0),
-                i_CLKB=ClockSignal("sync"), i_CEB=self.r_en, i_OCEB=oce, i_WEB=Const(0),
+                i_CLKB=ClockSignal("sync"), i_CEB=r_en, i_OCEB=oce, i_WEB=Const(0),
                 i_RSTB=ResetSignal("sync"),
                 **ports)
         return m

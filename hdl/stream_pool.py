@@ -79,9 +79,9 @@ class StreamPool(wiring.Component):
         m.d.comb += [self.d_valid.eq(valid[L]), self.d_tag.eq(tag[L])]
         if self._banks == 1:
             m.submodules.bank0 = ram = RegisteredRAM(2 * STREAM_WIDTH, self._words, init=self._init,
-                                                     addr_reg=True)
+                                                     addr_reg=True, continuous=True)
             m.d.comb += [ram.w_en.eq(self.w_en), ram.w_addr.eq(self.w_addr), ram.w_data.eq(self.w_data),
-                         ram.r_en.eq(1), ram.r_addr.eq(self.r_addr), self.d_data.eq(ram.r_data)]
+                         ram.r_addr.eq(self.r_addr), self.d_data.eq(ram.r_data)]
             return m
         self._elaborate_banks(m, platform, valid)
         return m
@@ -128,10 +128,10 @@ class StreamPool(wiring.Component):
                 gw = min(self.GROUP_BITS, W - g)
                 name = f"bank{b}_bits{g}"
                 ram = RegisteredRAM(gw, BW, init=[(w >> g) & ((1 << gw) - 1)
-                                                  for w in self._init[b * BW:(b + 1) * BW]])
+                                                  for w in self._init[b * BW:(b + 1) * BW]], continuous=True)
                 m.submodules[name] = ram
                 m.d.comb += [ram.w_en.eq(we), ram.w_addr.eq(wa), ram.w_data.eq(wd[g:g + gw]),
-                             ram.r_en.eq(1), ram.r_addr.eq(kept_register(m, platform, ra, f"{name}_r_addr"))]
+                             ram.r_addr.eq(kept_register(m, platform, ra, f"{name}_r_addr"))]
                 data = Signal(gw, name=f"{name}_data", reset_less=True)
                 m.d.sync += data.eq(Mux(hit[4][b], ram.r_data, 0))
                 word.append(data)

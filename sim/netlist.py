@@ -204,7 +204,8 @@ def edit_cell(netlist: str, cell: str, key: str, old: str, new: str, occurrence:
     raise NetlistError(f"no {cell} instance #{occurrence} with {needle} in the netlist")
 
 
-def ram_lockstep_sources(width: int, depth: int, *, addr_reg: bool = False, board: str = "ulx3s-85f"):
+def ram_lockstep_sources(width: int, depth: int, *, addr_reg: bool = False, continuous: bool = False,
+                         board: str = "ulx3s-85f"):
     """``({file: text}, toplevel)``: :class:`rast.hdl.ecp5_primitives.RegisteredRAM` twice, side by
     side on the same inputs: its behavioural Verilog (``ram_rtl``, what the other cosimulations
     run) and its ECP5 netlist with the DP16KD model (``ram_net``, what goes on the board).
@@ -215,8 +216,10 @@ def ram_lockstep_sources(width: int, depth: int, *, addr_reg: bool = False, boar
     from amaranth.back import verilog
     from rast.gateware.platforms import make_platform
     from rast.hdl.ecp5_primitives import RegisteredRAM
-    rtl = verilog.convert(RegisteredRAM(width, depth, addr_reg=addr_reg), name="ram_rtl", emit_src=False)
-    net = synthesize(RegisteredRAM(width, depth, addr_reg=addr_reg), "ram_net", make_platform(board))
+    kw = dict(addr_reg=addr_reg, continuous=continuous)
+    rtl = verilog.convert(RegisteredRAM(width, depth, **kw), name="ram_rtl", emit_src=False)
+    net = synthesize(RegisteredRAM(width, depth, **kw), "ram_net", make_platform(board))
+    r_en = "" if continuous else ".r_en(r_en), "        # a continuous RAM reads every clock
     aw = max(1, (depth - 1).bit_length())
     top = f"""// ram_lockstep: behavioural RegisteredRAM and its ECP5 netlist on the same inputs.
 module ram_lockstep (
@@ -226,9 +229,9 @@ module ram_lockstep (
     output [{width - 1}:0] r_data_rtl, output [{width - 1}:0] r_data_net
 );
     ram_rtl rtl (.clk(clk), .rst(rst), .w_en(w_en), .w_addr(w_addr), .w_data(w_data),
-                 .r_en(r_en), .r_addr(r_addr), .r_data(r_data_rtl));
+                 {r_en}.r_addr(r_addr), .r_data(r_data_rtl));
     ram_net net (.clk(clk), .rst(rst), .w_en(w_en), .w_addr(w_addr), .w_data(w_data),
-                 .r_en(r_en), .r_addr(r_addr), .r_data(r_data_net));
+                 {r_en}.r_addr(r_addr), .r_data(r_data_net));
 endmodule
 """
     return {"ecp5_cells.v": cell_library(), "ram_net.v": _lint_off() + net, "ram_rtl.v": rtl,

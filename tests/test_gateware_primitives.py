@@ -37,14 +37,18 @@ def test_mode_choice():
     assert is_ecp5(FakeECP5()) and not is_ecp5(None)
 
 
+@pytest.mark.parametrize("continuous", [False, True])
 @pytest.mark.parametrize("addr_reg", [False, True])
-def test_ram_model(addr_reg):
+def test_ram_model(addr_reg, continuous):
     """Behavioural RAM: latency 2 (3) under r_en, old data on a same-address write,
-    r_data 0 until the read stage has been loaded."""
+    r_data 0 until the read stage has been loaded; with ``continuous`` a read
+    every clock, r_data what the read stage held (the address register and
+    the read stage power up at 0, so the first words are word 0's)."""
     W, D = 12, 32
-    dut = RegisteredRAM(W, D, addr_reg=addr_reg)
+    dut = RegisteredRAM(W, D, addr_reg=addr_reg, continuous=continuous)
     assert dut.latency == (3 if addr_reg else 2)
-    areg = None
+    assert hasattr(dut, "r_en") != continuous
+    areg = 0 if continuous else None
     rng = random.Random(3)
     mem = [0] * D
     stage, out, primed = 0, 0, False
@@ -57,8 +61,13 @@ def test_ram_model(addr_reg):
             wa, ra, wd = rng.randrange(D), rng.randrange(D), rng.randrange(1 << W)
             if rng.random() < 0.1:
                 ra = wa
+            if continuous:
+                re_ = True
+                primed = primed or cyc > 0      # the read stage powers up holding 0
+            else:
+                ctx.set(dut.r_en, re_)
             ctx.set(dut.w_en, we); ctx.set(dut.w_addr, wa); ctx.set(dut.w_data, wd)
-            ctx.set(dut.r_en, re_); ctx.set(dut.r_addr, ra)
+            ctx.set(dut.r_addr, ra)
             await ctx.tick()
             if re_:
                 if primed:                  # r_data stays 0 until the read stage is loaded

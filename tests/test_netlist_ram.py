@@ -7,15 +7,17 @@ from rast.sim import runner
 from rast.sim.netlist import ram_lockstep_sources
 
 MODULE = "rast.sim.tb_netlist"
-# 1024 x 32: two DP16KD in x18 mode; 4096 x 8: two in x4 mode (the default build's delay lines)
-SHAPES = {"x18": (32, 1024), "x4": (8, 4096)}
+# 1024 x 32: two DP16KD in x18 mode; 4096 x 8: two in x4 mode (the default build's delay lines);
+# 16384 x 8: eight in x1 mode (a group of the stream pool's bank)
+SHAPES = {"x18": (32, 1024), "x4": (8, 4096), "x1": (8, 16384)}
 
 
-def _run(shape, addr_reg, **tb):
+def _run(shape, addr_reg, continuous=False, **tb):
     width, depth = SHAPES[shape]
-    sources, top = ram_lockstep_sources(width, depth, addr_reg=addr_reg)
-    b = runner.build(sources, top, simulator="verilator", label=f"ram-lockstep-{shape}")
-    runner.run(b, MODULE, name=f"lockstep-{shape}", testcase="lockstep", quiet=True,
+    sources, top = ram_lockstep_sources(width, depth, addr_reg=addr_reg, continuous=continuous)
+    label = f"ram-lockstep-{shape}{'-continuous' if continuous else ''}"
+    b = runner.build(sources, top, simulator="verilator", label=label)
+    runner.run(b, MODULE, name=label, testcase="lockstep", quiet=True,
                extra_env={"RAST_TB_PARAMS": __import__("json").dumps(dict(width=width, depth=depth, **tb))})
 
 
@@ -24,6 +26,13 @@ def _run(shape, addr_reg, **tb):
 def test_reset_mid_run(shape, addr_reg):
     """Resets at random cycles, many while the read stage is not primed: r_data equal every cycle."""
     _run(shape, addr_reg, seed=3, cycles=3000, resets=60, same_word=0)
+
+
+@pytest.mark.parametrize("addr_reg", [False, True], ids=["latency2", "latency3"])
+def test_continuous_reset_mid_run(addr_reg):
+    """A RAM that reads every clock (the stream pool's), its enables tied high: r_data equal
+    every cycle through resets too."""
+    _run("x1", addr_reg, continuous=True, seed=4, cycles=3000, resets=60, same_word=0)
 
 
 def test_read_of_the_word_being_written_differs():
