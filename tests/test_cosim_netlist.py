@@ -41,17 +41,18 @@ def test_netlist_top(kind, seed):
 
 
 #: A register mode flipped in one primitive of a netlist copy (cell, key, right, wrong, which
-#: instance having it): the output register of the stream pool's DP16KD holding bit 13 of the I
-#: half of the first bank's words (the pool is sliced one bit per DP16KD). The output register of
-#: bit 0 was tried first and was not seen: the product's rounding removes its word-to-word change.
-#: Each case costs a Verilator build of the whole netlist (about 3 minutes of CI); the sign
-#: settings of MULT18X18D are checked against hand-worked products on the cell model itself
-#: (tests/test_ecp5_models.py, ``mult_sign_modes``), so one case shows that this cosimulation
-#: sees a wrong primitive setting. (A flipped SIGNEDA of the real-part gain multiplier, the
-#: fifth MULT18X18D, was also caught here; a sign of the first complex-product multiplier was
-#: not: in this short farm its operands stay of one sign.)
+#: instance having it): the output register of the common delay window's DP16KD holding bits 12
+#: and 13 of its words (8192 x 2 slices). The stream pool's DP16KD holding bit 13 was the case
+#: until the pool read every clock: its bank's address is held between reads of that bank, so a
+#: slice one clock early still returned the same word in this farm (only two fetches of one bank
+#: in consecutive clocks would show it). Each case costs a Verilator build of the whole netlist
+#: (about 3 minutes of CI); the sign settings of MULT18X18D are checked against hand-worked
+#: products on the cell model itself (tests/test_ecp5_models.py, ``mult_sign_modes``), so one
+#: case shows that this cosimulation sees a wrong primitive setting. (A flipped SIGNEDA of the
+#: real-part gain multiplier, the fifth MULT18X18D, was also caught here; a sign of the first
+#: complex-product multiplier was not: in this short farm its operands stay of one sign.)
 WRONG_SETTINGS = {
-    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "pool.bank0.bram13"),
+    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "common.mem.bram6"),
 }
 
 
