@@ -121,8 +121,9 @@ class StreamPool(wiring.Component):
                 m.d.sync += ra.eq(self.r_addr[:bank_bits])
             with m.If(w_hit):
                 m.d.sync += [wa.eq(self.w_addr[:bank_bits]), wd.eq(self.w_data)]
-            # the write's copies a clock before the read's: the write is at
-            # the RAM a clock ahead of a read presented in the same clock
+            # the write goes to the RAMs from these registers, the read
+            # through one more (the group's copy): a write is at the RAM a
+            # clock ahead of a read presented in the same clock
             word = []
             for g in range(0, W, self.GROUP_BITS):
                 gw = min(self.GROUP_BITS, W - g)
