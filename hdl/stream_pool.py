@@ -1,5 +1,8 @@
 """The stream pool: one memory for every channel's stream, read by tagged fetches."""
 
+from functools import reduce
+from operator import or_
+
 from amaranth.hdl import Module, Signal, Cat, Mux
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
@@ -137,4 +140,4 @@ class StreamPool(wiring.Component):
                 m.d.sync += data.eq(Mux(hit[4][b], ram.r_data, 0))
                 word.append(data)
             words.append(Cat(*word))
-        m.d.sync += self.d_data.eq(Cat(*[Cat(*[w[i] for w in words]).any() for i in range(W)]))
+        m.d.sync += self.d_data.eq(reduce(or_, words))
