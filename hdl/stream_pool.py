@@ -107,9 +107,13 @@ class StreamPool(wiring.Component):
         bank_bits = (BW - 1).bit_length()
         W = 2 * STREAM_WIDTH
         r_bank, w_bank = self.r_addr[bank_bits:], self.w_addr[bank_bits:]
+        # clocks from a read to its word at the groups' RAM outputs (bank
+        # register, group copy, read, output register); then the group's
+        # data register and the OR
+        at = self.latency - 2
         # the read's bank along the pipeline: hit[k][b], "the read k clocks ago was of bank b"
         hit = [[valid[0] & (r_bank == b) for b in range(self._banks)]]
-        for k in range(1, 5):
+        for k in range(1, at + 1):
             hit.append([Signal(name=f"hit{k}_bank{b}") for b in range(self._banks)])
             m.d.sync += [h.eq(p) for h, p in zip(hit[k], hit[k - 1])]
         words = []
@@ -137,7 +141,7 @@ class StreamPool(wiring.Component):
                 m.d.comb += [ram.w_en.eq(we), ram.w_addr.eq(wa), ram.w_data.eq(wd[g:g + gw]),
                              ram.r_addr.eq(kept_register(m, platform, ra, f"{name}_r_addr"))]
                 data = Signal(gw, name=f"{name}_data", reset_less=True)
-                m.d.sync += data.eq(Mux(hit[4][b], ram.r_data, 0))
+                m.d.sync += data.eq(Mux(hit[at][b], ram.r_data, 0))
                 word.append(data)
             words.append(Cat(*word))
         m.d.sync += self.d_data.eq(reduce(or_, words))

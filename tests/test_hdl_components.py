@@ -15,7 +15,8 @@ from rast.hdl.replay_top import WindFarmReplay
 from rast.model.powerup import ChannelInit
 from rast.hdl.iq import IQ
 from rast.model import datapath as dp
-from rast.model.fixedpoint import pack_iq, unpack_iq, PHASE_FRAC_BITS, POOL_BANK_WORDS, ReplayContract
+from rast.model.fixedpoint import (pack_iq, unpack_iq, PHASE_FRAC_BITS, POOL_BANK_WORDS, STREAM_WIDTH,
+                                  ReplayContract)
 
 ONE = 1 << PHASE_FRAC_BITS
 
@@ -109,8 +110,9 @@ def test_stream_pool_ecp5_register_trees():
     from amaranth.back import rtlil
     banks = 5
     text = rtlil.convert(StreamPool(banks * POOL_BANK_WORDS, 4), platform=type("ECP5", (), {"family": "ecp5"})())
-    groups = banks * 32 // StreamPool.GROUP_BITS
-    assert text.count("cell \\DP16KD") == banks * 32
+    slices = 2 * STREAM_WIDTH                # one bit per DP16KD (16384 x 1)
+    groups = banks * slices // StreamPool.GROUP_BITS
+    assert text.count("cell \\DP16KD") == banks * slices
     assert text.count("cell \\TRELLIS_FF") == groups * (POOL_BANK_WORDS - 1).bit_length()
 
 
