@@ -29,12 +29,32 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 __all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "is_ecp5", "dp16kd_mode",
-           "DP16KD_MODES"]
+           "DP16KD_MODES", "BLOCK_RAM_SITES", "block_ram_rows"]
 
 #: DP16KD data widths and depths (single port of the pair), widest last.
 DP16KD_MODES = ((1, 16384), (2, 8192), (4, 4096), (9, 2048), (18, 1024))
 #: Address bits below the word address in each mode (ADx[13:shift] is the address).
 _ADDR_SHIFT = {1: 0, 2: 1, 4: 2, 9: 3, 18: 4}
+
+
+#: The block-RAM sites of the devices whose floorplan is known, as nextpnr names
+#: them (``X<x>/Y<y>/EBR<k>``): per device the rows' y and the x of each
+#: column of four sites (EBR k at x + 2k). Read from nextpnr's placement of
+#: a design that fills every DP16KD (nextpnr-ecp5 0.11, LFE5U-85F: four rows
+#: of 52 sites, 208 in all); docs/bitstream.md, "The pool's block RAMs placed".
+BLOCK_RAM_SITES = {
+    "LFE5U-85F": ((22, 46, 70, 82), (4, 13, 22, 31, 40, 49, 58, 69, 78, 87, 96, 105, 114)),
+}
+
+
+def block_ram_rows(platform):
+    """The block-RAM sites of ``platform``'s device as rows (each left to right,
+    a list of nextpnr bel names), or ``None`` when the platform is not an ECP5
+    device of :data:`BLOCK_RAM_SITES` (the placer then chooses freely)."""
+    if not is_ecp5(platform) or getattr(platform, "device", None) not in BLOCK_RAM_SITES:
+        return None
+    ys, xs = BLOCK_RAM_SITES[platform.device]
+    return [[f"X{x + 2 * k}/Y{y}/EBR{k}" for x in xs for k in range(4)] for y in ys]
 
 
 def is_ecp5(platform) -> bool:
@@ -117,6 +137,10 @@ class RegisteredRAM(wiring.Component):
         to Yosys (distributed RAM for a few dozen words).
     continuous : bool
         Read every clock (no ``r_en``).
+    sites : sequence of str, optional
+        On ECP5, the bel of each DP16KD slice (lowest bits first), as nextpnr
+        names them (:func:`block_ram_rows`): the slices are placed there
+        (nextpnr's ``BEL`` attribute) instead of where the placer puts them.
 
     Members
     -------
@@ -124,7 +148,8 @@ class RegisteredRAM(wiring.Component):
     r_en : In(1) (not with ``continuous``), r_addr : In(range(depth)), r_data : Out(width)
     """
 
-    def __init__(self, width, depth, init=(), *, addr_reg=False, block_ram=True, continuous=False):
+    def __init__(self, width, depth, init=(), *, addr_reg=False, block_ram=True, continuous=False,
+                 sites=None):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"RAM width must be a positive integer, not {width!r}")
         if not isinstance(depth, int) or isinstance(depth, bool) or depth < 2:
@@ -136,9 +161,16 @@ class RegisteredRAM(wiring.Component):
             raise TypeError(f"Block RAM must be a bool, not {block_ram!r}")
         if not isinstance(continuous, bool):
             raise TypeError(f"Continuous must be a bool, not {continuous!r}")
+        if sites is not None:
+            mode = dp16kd_mode(width, depth)
+            sites = tuple(sites)
+            if mode is None or not all(isinstance(x, str) for x in sites) or len(sites) != mode[1]:
+                raise ValueError(f"RAM sites must be {mode[1] if mode else 'no'} bel names (one per "
+                                 f"block RAM of a {depth} x {width} RAM), not {sites!r}")
         self._addr_reg = addr_reg
         self._block_ram = block_ram
         self._continuous = continuous
+        self._sites = sites
         super().__init__({
             "w_en": In(1), "w_addr": In(range(depth)), "w_data": In(width),
             **({} if continuous else {"r_en": In(1)}),
@@ -237,6 +269,8 @@ class RegisteredRAM(wiring.Component):
             for b in range(3):
                 ports[f"i_CSA{b}"] = Const(0)
                 ports[f"i_CSB{b}"] = Const(0)
+            if self._sites is not None:
+                ports["a_BEL"] = self._sites[k]
             m.submodules[f"bram{k}"] = Instance(
                 "DP16KD",
                 p_DATA_WIDTH_A=w, p_DATA_WIDTH_B=w,

@@ -7,7 +7,7 @@ from amaranth.hdl import Module, Signal, Cat, Mux
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from .ecp5_primitives import RegisteredRAM, kept_register
+from .ecp5_primitives import RegisteredRAM, kept_register, block_ram_rows, dp16kd_mode
 from ..model.fixedpoint import STREAM_WIDTH, POOL_BANK_WORDS
 
 __all__ = ["StreamPool"]
@@ -41,7 +41,7 @@ class StreamPool(wiring.Component):
     d_valid : Out(1), d_tag : Out(tag_width), d_data : Out(32)
     """
 
-    #: Block-RAM slices (bits) per kept copy of a bank's read address.
+    #: Block-RAM slices (bits) per kept copy of a bank's read and write access.
     GROUP_BITS = 8
 
     def __init__(self, words, tag_width, init=()):
@@ -67,10 +67,10 @@ class StreamPool(wiring.Component):
     @property
     def latency(self):
         """Clocks from ``r_valid`` to ``d_valid``: one bank, the RAM's 3
-        (address register, read, output register); several, 6 (the
-        address's two register levels, read, output register, the group's
+        (address register, read, output register); several, 7 (the
+        address's three register levels, read, output register, the group's
         data register, the bank multiplexer)."""
-        return 3 if self._banks == 1 else 6
+        return 3 if self._banks == 1 else 7
 
     def elaborate(self, platform):
         m = Module()
@@ -98,19 +98,30 @@ class StreamPool(wiring.Component):
         write's enable, address and data go to a register per bank (loaded
         only by an access of that bank: the copies differ, so synthesis
         keeps them), then to a kept copy per group of GROUP_BITS slices
-        (:func:`kept_register`), each free to sit beside its group. A
-        group's read data goes to a register of its own, zero unless the
-        read was of its bank, and the word is the OR of the banks' groups.
-        A write reaches the RAMs a clock before a read presented with it,
-        as with one bank."""
+        (:func:`kept_register`), each free to sit beside its group; the
+        read address passes one more register, the RAM's own, so a write
+        reaches the RAMs a clock before a read presented with it, as with
+        one bank. A group's read data goes to a register of its own, zero
+        unless the read was of its bank, and the word is the OR of the
+        banks' groups.
+
+        Where the device's block-RAM rows are known (:func:`block_ram_rows`)
+        and a row has room for one group of every bank, the groups are
+        placed: the groups of bits 8k..8k+7 of all banks in row k, in bank
+        order, each group's slices in neighbouring sites, the sites left
+        for the other RAMs spread evenly before, between and after them (a
+        delay line then finds a block RAM near its logic anywhere along a
+        row). A group's copies reach 8 sites in a row, and the OR of a byte
+        over the banks stays in one row."""
         BW = self._bank_words
         bank_bits = (BW - 1).bit_length()
         W = 2 * STREAM_WIDTH
         r_bank, w_bank = self.r_addr[bank_bits:], self.w_addr[bank_bits:]
         # clocks from a read to its word at the groups' RAM outputs (bank
-        # register, group copy, read, output register); then the group's
-        # data register and the OR
+        # register, group copy, the RAM's address register, read, output
+        # register); then the group's data register and the OR
         at = self.latency - 2
+        floorplan = self._floorplan(platform)
         # the read's bank along the pipeline: hit[k][b], "the read k clocks ago was of bank b"
         hit = [[valid[0] & (r_bank == b) for b in range(self._banks)]]
         for k in range(1, at + 1):
@@ -128,20 +139,41 @@ class StreamPool(wiring.Component):
                 m.d.sync += ra.eq(self.r_addr[:bank_bits])
             with m.If(w_hit):
                 m.d.sync += [wa.eq(self.w_addr[:bank_bits]), wd.eq(self.w_data)]
-            # the write goes to the RAMs from these registers, the read
-            # through one more (the group's copy): a write is at the RAM a
-            # clock ahead of a read presented in the same clock
             word = []
-            for g in range(0, W, self.GROUP_BITS):
+            for gi, g in enumerate(range(0, W, self.GROUP_BITS)):
                 gw = min(self.GROUP_BITS, W - g)
                 name = f"bank{b}_bits{g}"
                 ram = RegisteredRAM(gw, BW, init=[(w >> g) & ((1 << gw) - 1)
-                                                  for w in self._init[b * BW:(b + 1) * BW]], continuous=True)
+                                                  for w in self._init[b * BW:(b + 1) * BW]],
+                                    addr_reg=True, continuous=True,
+                                    sites=floorplan[gi][b] if floorplan else None)
                 m.submodules[name] = ram
-                m.d.comb += [ram.w_en.eq(we), ram.w_addr.eq(wa), ram.w_data.eq(wd[g:g + gw]),
+                m.d.comb += [ram.w_en.eq(kept_register(m, platform, we, f"{name}_w_en", reset=True)),
+                             ram.w_addr.eq(kept_register(m, platform, wa, f"{name}_w_addr")),
+                             ram.w_data.eq(kept_register(m, platform, wd[g:g + gw], f"{name}_w_data")),
                              ram.r_addr.eq(kept_register(m, platform, ra, f"{name}_r_addr"))]
                 data = Signal(gw, name=f"{name}_data", reset_less=True)
                 m.d.sync += data.eq(Mux(hit[at][b], ram.r_data, 0))
                 word.append(data)
             words.append(Cat(*word))
         m.d.sync += self.d_data.eq(reduce(or_, words))
+
+    def _floorplan(self, platform):
+        """``sites[group][bank]``: the bels of each group's slices (see
+        :meth:`_elaborate_banks`), or ``None`` where the device's rows are
+        unknown or too few or too short for this pool."""
+        rows = block_ram_rows(platform)
+        W = 2 * STREAM_WIDTH
+        groups = [min(self.GROUP_BITS, W - g) for g in range(0, W, self.GROUP_BITS)]
+        per_group = [dp16kd_mode(gw, self._bank_words)[1] for gw in groups]
+        if rows is None or len(rows) < len(groups) or any(self._banks * n > len(r) for n, r in zip(per_group, rows)):
+            return None
+        B = self._banks
+        plan = []
+        for row, n in zip(rows, per_group):
+            # the sites left free, spread over the B + 1 gaps before, between
+            # and after the groups
+            free = len(row) - B * n
+            first = [free * (b + 1) // (B + 1) + b * n for b in range(B)]
+            plan.append([row[f:f + n] for f in first])
+        return plan

@@ -16,7 +16,7 @@ from amaranth.back import rtlil
 from amaranth.sim import Simulator
 
 from rast.hdl.ecp5_primitives import (RegisteredRAM, RegisteredMultiplier, dp16kd_mode, is_ecp5,
-                                      kept_register)
+                                      kept_register, block_ram_rows)
 
 
 class FakeECP5:
@@ -170,6 +170,37 @@ def test_kept_register_copies_survive_synthesis(kept, tmp_path):
     assert parse_yosys_stat((tmp_path / "top.rpt").read_text())["TRELLIS_FF"] == (32 if kept else 8)
 
 
+def test_ram_sites_are_the_85f_bels_nextpnr_places_at(tmp_path):
+    """A RAM whose slices are given sites (one in each block-RAM row of the
+    LFE5U-85F, at both ends and between) through synth_ecp5 and nextpnr's
+    placer: each DP16KD is where it was asked to be, so the site names of
+    block_ram_rows are the device's bels and nextpnr honours them."""
+    import json
+    import subprocess
+    from rast.gateware.build import tool_env
+    rows = block_ram_rows(type("ECP5", (), {"family": "ecp5", "device": "LFE5U-85F"})())
+    sites = [rows[0][0], rows[1][17], rows[2][34], rows[3][51]]
+    dut = RegisteredRAM(4, 16384, sites=sites, continuous=True)
+    text = _rtlil(dut, type("ECP5", (), {"family": "ecp5", "device": "LFE5U-85F"})())
+    (tmp_path / "top.il").write_text(text)
+    env = tool_env()
+    subprocess.run([env["YOSYS"], "-q", "-p", "read_rtlil top.il; synth_ecp5 -top top -json top.json"],
+                   cwd=tmp_path, env=env, check=True, capture_output=True)
+    subprocess.run([env["NEXTPNR_ECP5"], "--85k", "--package", "CABGA381", "--json", "top.json",
+                    "--no-route", "--write", "placed.json", "--timing-allow-fail"],
+                   cwd=tmp_path, env=env, check=True, capture_output=True)
+    cells = json.loads((tmp_path / "placed.json").read_text())["modules"]["top"]["cells"]
+    placed = {name.rsplit(".", 1)[-1]: c["attributes"]["NEXTPNR_BEL"]
+              for name, c in cells.items() if c["type"] == "DP16KD"}
+    assert placed == {f"bram{k}": site for k, site in enumerate(sites)}
+
+
+def test_ram_sites_without_a_known_device_are_ignored():
+    """Sites apply on ECP5 only; elsewhere the RAM is a Memory as always."""
+    text = _rtlil(RegisteredRAM(2, 8192, sites=["X4/Y22/EBR0"]), None)
+    assert "DP16KD" not in text and "BEL" not in text
+
+
 @pytest.mark.parametrize("reset", [False, True])
 def test_kept_register_behaviour(reset):
     """Off ECP5 a kept register is a plain one: the value one clock later,
@@ -198,5 +229,8 @@ def test_kept_register_behaviour(reset):
 def test_parameter_errors():
     with pytest.raises(TypeError, match=r"^RAM width must be a positive integer, not 0$"):
         RegisteredRAM(0, 16)
+    with pytest.raises(ValueError, match=r"^RAM sites must be 4 bel names \(one per block RAM of a "
+                                         r"16384 x 4 RAM\), not \('X4/Y22/EBR0',\)$"):
+        RegisteredRAM(4, 16384, sites=["X4/Y22/EBR0"])
     with pytest.raises(ValueError, match=r"^Operand A width must be an integer in \[1, 18\], not 19$"):
         RegisteredMultiplier(19, 16)

@@ -105,15 +105,80 @@ def test_stream_pool_reads_and_writes(words):
 
 def test_stream_pool_ecp5_register_trees():
     """A pool of several banks on ECP5: each group of GROUP_BITS slices has a
-    read address of its own in kept flip-flops (so synthesis cannot merge
-    the copies back into one register that drives every block RAM)."""
+    read address and a write enable, address and data of its own in kept
+    flip-flops (so synthesis cannot merge the copies back into one register
+    that drives every block RAM)."""
     from amaranth.back import rtlil
     banks = 5
     text = rtlil.convert(StreamPool(banks * POOL_BANK_WORDS, 4), platform=type("ECP5", (), {"family": "ecp5"})())
     slices = 2 * STREAM_WIDTH                # one bit per DP16KD (16384 x 1)
     groups = banks * slices // StreamPool.GROUP_BITS
+    address_bits = (POOL_BANK_WORDS - 1).bit_length()
     assert text.count("cell \\DP16KD") == banks * slices
-    assert text.count("cell \\TRELLIS_FF") == groups * (POOL_BANK_WORDS - 1).bit_length()
+    assert text.count("cell \\TRELLIS_FF") == groups * (2 * address_bits + StreamPool.GROUP_BITS + 1)
+    assert "attribute \\BEL" not in text   # no device named: no floorplan
+
+
+def _dp16kd_bels(text):
+    """``{instance path: BEL}`` of the DP16KD cells in an RTLIL text."""
+    bels, pending, module = {}, None, None
+    for line in text.splitlines():
+        line = line.strip()
+        if line.startswith("module "):
+            module = line.split()[1]
+        elif line.startswith("attribute \\BEL "):
+            pending = line.split(" ", 2)[2].strip('"')
+        elif line.startswith("cell \\DP16KD "):
+            bels[f"{module}.{line.split()[2]}"] = pending
+            pending = None
+        elif line.startswith(("cell ", "wire ")):
+            pending = None
+    return bels
+
+
+_85F = type("ECP5", (), {"family": "ecp5", "device": "LFE5U-85F"})
+
+
+@pytest.mark.parametrize("banks", [2, 5, 6])
+def test_stream_pool_floorplan_on_the_85f(banks):
+    """On an LFE5U-85F the banks' groups are placed: the groups of bits
+    8k..8k+7 of every bank in block-RAM row k in bank order, each group in
+    neighbouring sites, the sites left for other RAMs spread between them,
+    every slice at a site of its own."""
+    import re
+    from amaranth.back import rtlil
+    from rast.hdl.ecp5_primitives import block_ram_rows
+    rows = block_ram_rows(_85F())
+    assert [len(r) for r in rows] == [52] * 4 and len({s for r in rows for s in r}) == 208
+    bels = _dp16kd_bels(rtlil.convert(StreamPool(banks * POOL_BANK_WORDS, 4), platform=_85F()))
+    assert len(bels) == banks * 2 * STREAM_WIDTH and None not in bels.values()
+    assert len(set(bels.values())) == len(bels)
+    G = StreamPool.GROUP_BITS
+    groups = {}
+    for path, bel in bels.items():
+        b, g = map(int, re.search(r"bank(\d+)_bits(\d+)", path).groups())
+        groups.setdefault((b, g), []).append(bel)
+    assert len(groups) == banks * 2 * STREAM_WIDTH // G
+    free = 52 - banks * G
+    for g in range(0, 2 * STREAM_WIDTH, G):
+        row = rows[g // G]
+        starts = []
+        for b in range(banks):
+            index = sorted(row.index(bel) for bel in groups[b, g])   # every bel in row g // G
+            assert index == list(range(index[0], index[0] + G))      # neighbouring sites
+            starts.append(index[0])
+        # in bank order, the free sites spread: no gap before, between or
+        # after the groups more than one site longer than another
+        ends = [0] + [s + G for s in starts]
+        gaps = [s - e for s, e in zip(starts + [52], ends)]
+        assert min(gaps) >= 0 and sum(gaps) == free and max(gaps) - min(gaps) <= 1
+
+
+def test_stream_pool_no_floorplan_where_rows_lack_room():
+    """Seven banks do not fit a row of 52 sites with a group each: no floorplan."""
+    from amaranth.back import rtlil
+    text = rtlil.convert(StreamPool(7 * POOL_BANK_WORDS, 4), platform=_85F())
+    assert "attribute \\BEL" not in text and text.count("cell \\DP16KD") == 7 * 2 * STREAM_WIDTH
 
 
 @pytest.mark.parametrize("args, exc, msg", [
