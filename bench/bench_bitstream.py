@@ -33,6 +33,8 @@ LADDER = {
                    dict(channels=20, pool_words=16384)),
     "n10_20_200": ("one pipeline of the default (10 channels, M = 10), 16,384-word pool",
                    dict(channels=10, pool_words=16384)),
+    "n10p_20_200": ("one pipeline of the default with the default's 81,920-word pool (five banks)",
+                    dict(channels=10)),
     "n10_10_100": ("one pipeline at 100 MHz (10 channels at 10 MS/s, M = 10): the CI build",
                    dict(channels=10, sample_rate_mhz=10, clock_mhz=100, pool_words=16384)),
 }

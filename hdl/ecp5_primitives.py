@@ -141,6 +141,7 @@ class RegisteredRAM(wiring.Component):
         On ECP5, the bel of each DP16KD slice (lowest bits first), as nextpnr
         names them (:func:`block_ram_rows`): the slices are placed there
         (nextpnr's ``BEL`` attribute) instead of where the placer puts them.
+        Not used where the RAM is left to Yosys (``init``, ``block_ram=False``).
 
     Members
     -------

@@ -195,7 +195,7 @@ def test_ram_sites_are_the_85f_bels_nextpnr_places_at(tmp_path):
     assert placed == {f"bram{k}": site for k, site in enumerate(sites)}
 
 
-def test_ram_sites_without_a_known_device_are_ignored():
+def test_ram_sites_apply_on_ecp5_only():
     """Sites apply on ECP5 only; elsewhere the RAM is a Memory as always."""
     text = _rtlil(RegisteredRAM(2, 8192, sites=["X4/Y22/EBR0"]), None)
     assert "DP16KD" not in text and "BEL" not in text
