@@ -178,10 +178,10 @@ def test_ram_sites_are_the_85f_bels_nextpnr_places_at(tmp_path):
     import json
     import subprocess
     from rast.gateware.build import tool_env
-    rows = block_ram_rows(type("ECP5", (), {"family": "ecp5", "device": "LFE5U-85F"})())
+    platform = type("ECP5", (), {"family": "ecp5", "device": "LFE5U-85F"})()
+    rows = block_ram_rows(platform)
     sites = [rows[0][0], rows[1][17], rows[2][34], rows[3][51]]
-    dut = RegisteredRAM(4, 16384, sites=sites, continuous=True)
-    text = _rtlil(dut, type("ECP5", (), {"family": "ecp5", "device": "LFE5U-85F"})())
+    text = _rtlil(RegisteredRAM(4, 16384, sites=sites, continuous=True), platform)
     (tmp_path / "top.il").write_text(text)
     env = tool_env()
     subprocess.run([env["YOSYS"], "-q", "-p", "read_rtlil top.il; synth_ecp5 -top top -json top.json"],
