@@ -140,8 +140,7 @@ class StreamPool(wiring.Component):
             with m.If(w_hit):
                 m.d.sync += [wa.eq(self.w_addr[:bank_bits]), wd.eq(self.w_data)]
             word = []
-            for gi, g in enumerate(range(0, W, self.GROUP_BITS)):
-                gw = min(self.GROUP_BITS, W - g)
+            for gi, (g, gw) in enumerate(self._groups()):
                 name = f"bank{b}_bits{g}"
                 ram = RegisteredRAM(gw, BW, init=[(w >> g) & ((1 << gw) - 1)
                                                   for w in self._init[b * BW:(b + 1) * BW]],
@@ -158,17 +157,20 @@ class StreamPool(wiring.Component):
             words.append(Cat(*word))
         m.d.sync += self.d_data.eq(reduce(or_, words))
 
+    def _groups(self):
+        """``(first bit, bits)`` of each group of GROUP_BITS slices of a word."""
+        W = 2 * STREAM_WIDTH
+        return [(g, min(self.GROUP_BITS, W - g)) for g in range(0, W, self.GROUP_BITS)]
+
     def _floorplan(self, platform):
         """``sites[group][bank]``: the bels of each group's slices (see
         :meth:`_elaborate_banks`), or ``None`` where the device's rows are
         unknown or too few or too short for this pool."""
         rows = block_ram_rows(platform)
-        W = 2 * STREAM_WIDTH
-        groups = [min(self.GROUP_BITS, W - g) for g in range(0, W, self.GROUP_BITS)]
-        per_group = [dp16kd_mode(gw, self._bank_words)[1] for gw in groups]
-        if rows is None or len(rows) < len(groups) or any(self._banks * n > len(r) for n, r in zip(per_group, rows)):
-            return None
+        per_group = [dp16kd_mode(gw, self._bank_words)[1] for _, gw in self._groups()]
         B = self._banks
+        if rows is None or len(rows) < len(per_group) or any(B * n > len(r) for n, r in zip(per_group, rows)):
+            return None
         plan = []
         for row, n in zip(rows, per_group):
             # the sites left free, spread over the B + 1 gaps before, between
