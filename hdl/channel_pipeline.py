@@ -9,7 +9,7 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .cmult import ComplexMultiplier
-from .ecp5_primitives import RegisteredMultiplier
+from .ecp5_primitives import RegisteredMultiplier, kept_register
 from .delay_line import DelayLine
 from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
@@ -617,17 +617,23 @@ class ChannelPipeline(wiring.Component):
             m.d.sync += self.underflow.eq(late)
 
         # ---- the window: written once per step, read at each slot's tap ---------
-        # A slot's tap is read WORD_CYCLES - latency clocks after its visit, so
-        # that its sample is out with the word. c[n] comes from the common line
-        # 3 clocks after the period start and is written just after the last
+        # A slot's tap is read WORD_CYCLES - latency - 1 clocks after its visit
+        # and its sample registered in fabric, so that it is out with the word:
+        # the RAM's output register went straight into the multipliers' input
+        # registers, the latest path of a two-pipeline build (7.9 ns, 6.9 of
+        # it routing, docs/bitstream.md). c[n] comes from the common line 3
+        # clocks after the period start and is written just after the last
         # read of the step before (a write for step n + 1 never meets a read for
-        # step n at the RAM: tests/formal/replay_formal.py's rule).
+        # step n at the RAM: tests/formal/replay_formal.py's rule); its last
+        # register is this pipeline's own (kept: the common line feeds every
+        # pipeline's window, and Yosys merges equal registers).
         m.submodules.window = win = DelayLine(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG)
         assert win.depth == W
-        read_at = WORD_CYCLES - win.latency
+        read_at = WORD_CYCLES - win.latency - 1
         write_at = V + read_at + 1                    # clocks after the period start
         wen = _delay(m, start & self.accept, write_at, "win_wen")
-        wdata = _delay(m, self.win_data, write_at - DelayLine.latency, "win_wdata", data=True)   # the common line's
+        wdata = _delay(m, self.win_data, write_at - DelayLine.latency - 1, "win_wdata", data=True)
+        wdata = kept_register(m, platform, wdata, "win_wdata_own")
         windex = _delay(m, nidx_h, write_at - 1, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
                      win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex", data=True)),
@@ -635,8 +641,9 @@ class ChannelPipeline(wiring.Component):
 
         # ---- complex product, gain, slot accumulator -----------------------------
         m.submodules.cmult = cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
-        tdata = Signal(IQ(INPUT_WIDTH), name="tap_sample")
-        m.d.comb += [tdata.eq(win.o), cm.en.eq(1), cm.a.eq(tdata), cm.b.eq(word)]
+        tdata = Signal(IQ(INPUT_WIDTH), name="tap_sample", reset_less=True)
+        m.d.sync += tdata.eq(win.o)
+        m.d.comb += [cm.en.eq(1), cm.a.eq(tdata), cm.b.eq(word)]
         geff = Signal(rg.gain.shape(), name="geff")
         m.d.comb += geff.eq(Mux(rg.enable, rg.gain, 0))
         g = _delay(m, geff, WORD_CYCLES + cm.latency, "gain", data=True)
