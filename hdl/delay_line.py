@@ -1,10 +1,10 @@
 """A RAM delay line indexed by step: written once per step, read at any tap."""
 
-from amaranth.hdl import Module, Signal, unsigned
+from amaranth.hdl import Module, Signal, Cat, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from .ecp5_primitives import RegisteredRAM
+from .ecp5_primitives import RegisteredRAM, kept_register
 from ..model.fixedpoint import delay_depth
 
 __all__ = ["DelayLine"]
@@ -25,6 +25,15 @@ class DelayLine(wiring.Component):
     1`` overwrites only after ``depth >= max_delay + lag + 1`` steps.
     Words never written read as zero.
 
+    With ``group_bits`` the RAM is split into groups of that many bits, each
+    with registers of its own for the write (enable, index, its part of the
+    word) and for the read address, kept apart in synthesis
+    (:func:`kept_register`) so that each may sit beside its group: a line
+    whose block RAMs are spread over the device is then not fed from one
+    register. A write is then presented a clock before it reaches the RAM
+    (the caller gives ``w_*`` a clock earlier than without groups); the
+    read's latency is the same.
+
     Parameters
     ----------
     width : int
@@ -34,6 +43,8 @@ class DelayLine(wiring.Component):
     lag : int
         Steps between a word and its read at delay 0 (the contract's
         COMMON_LAG / WINDOW_LAG).
+    group_bits : int or None
+        Bits per group of block RAMs with registers of its own (above).
 
     Members
     -------
@@ -47,13 +58,17 @@ class DelayLine(wiring.Component):
 
     latency = 3
 
-    def __init__(self, width, max_delay, lag=1):
+    def __init__(self, width, max_delay, lag=1, *, group_bits=None):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"Delay line width must be a positive integer, not {width!r}")
         if not isinstance(max_delay, int) or isinstance(max_delay, bool) or max_delay < 0:
             raise TypeError(f"Maximum delay must be a non-negative integer, not {max_delay!r}")
         if not isinstance(lag, int) or isinstance(lag, bool) or lag < 1:
             raise ValueError(f"Lag must be a positive integer, not {lag!r}")
+        if group_bits is not None and (not isinstance(group_bits, int) or isinstance(group_bits, bool)
+                                       or not 0 < group_bits <= width):
+            raise ValueError(f"Group bits must be None or an integer in [1, {width}], not {group_bits!r}")
+        self._group_bits = group_bits
         self._width = width
         self._max_delay = max_delay
         self._lag = lag
@@ -81,6 +96,8 @@ class DelayLine(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
+        if self._group_bits is not None:
+            return self._elaborate_groups(m, platform)
         # Block RAM with its output register (DP16KD OUTREG on ECP5), the read
         # address from a register beside it.
         m.submodules.mem = mem = RegisteredRAM(self._width, self._depth, addr_reg=True)
@@ -88,4 +105,22 @@ class DelayLine(wiring.Component):
         m.d.comb += [mem.w_en.eq(self.w_en), mem.w_addr.eq(self.w_index), mem.w_data.eq(self.w_data),
                      mem.r_en.eq(1), mem.r_addr.eq(self.r_index - self._lag - self.r_delay),
                      self.o.eq(mem.r_data)]
+        return m
+
+    def _elaborate_groups(self, m, platform):
+        r_addr = Signal(range(self._depth))
+        m.d.comb += r_addr.eq(self.r_index - self._lag - self.r_delay)
+        words = []
+        for g in range(0, self._width, self._group_bits):
+            gw = min(self._group_bits, self._width - g)
+            name = f"mem_bits{g}"
+            # the read address's register is the group's copy (latency 1 + 2)
+            m.submodules[name] = mem = RegisteredRAM(gw, self._depth, continuous=True)
+            assert 1 + mem.latency == self.latency
+            m.d.comb += [mem.w_en.eq(kept_register(m, platform, self.w_en, f"{name}_w_en", reset=True)),
+                         mem.w_addr.eq(kept_register(m, platform, self.w_index, f"{name}_w_index")),
+                         mem.w_data.eq(kept_register(m, platform, self.w_data[g:g + gw], f"{name}_w_data")),
+                         mem.r_addr.eq(kept_register(m, platform, r_addr, f"{name}_r_addr"))]
+            words.append(mem.r_data)
+        m.d.comb += self.o.eq(Cat(*words))
         return m

@@ -9,7 +9,7 @@ from .iq import IQ
 from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
-from .ecp5_primitives import kept_register
+from .ecp5_primitives import kept_register, dp16kd_mode
 from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
@@ -248,19 +248,24 @@ class WindFarmReplay(wiring.Component):
 
         # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
         # The pipelines' period starts ACCEPT_LAG clocks after the accepting one:
-        # then x[n] is written and the read for step n asked, so that c[n] is
-        # out three clocks after the period start.
-        m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
+        # then x[n] reaches the RAM and the read for step n is asked, so that
+        # c[n] is out three clocks after the period start. The line's block
+        # RAMs lie wherever the pool left room, so each has its own write and
+        # read-address registers (one register fed all 16: 7.7 ns of routing
+        # in a two-pipeline build, docs/bitstream.md); the write is handed over
+        # in the accepting clock, its registers are the line's.
+        mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
+        m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
+                                                 group_bits=mode[0] if mode else 2 * INPUT_WIDTH)
         assert common.depth == c.common_depth and common.latency == 3 and ACCEPT_LAG == 1
         cnt = Signal(range(c.common_depth))
-        x_q = Signal(2 * INPUT_WIDTH, reset_less=True)         # data: not reset (channel_pipeline)
-        w_en = Signal()
         n_q = Signal.like(cnt)
-        m.d.sync += [x_q.eq(self.i.payload.as_value()), w_en.eq(accept), n_q.eq(cnt)]
+        m.d.sync += n_q.eq(cnt)
         with m.If(accept):
             m.d.sync += cnt.eq(cnt + 1)
-        m.d.comb += [common.w_en.eq(w_en), common.w_index.eq(n_q), common.w_data.eq(x_q),
-                     common.r_index.eq(n_q), common.r_delay.eq(regs.common_delay)]
+        m.d.comb += [common.w_en.eq(accept), common.w_index.eq(cnt),
+                     common.w_data.eq(self.i.payload.as_value())]
+        m.d.comb += [common.r_index.eq(n_q), common.r_delay.eq(regs.common_delay)]
 
         # ---- the pool and the fetch scan -----------------------------------------
         ptag = fetch_tag_layout(M)

@@ -48,6 +48,8 @@ def test_delay_line_parameters():
         DelayLine(8, -1)
     with pytest.raises(ValueError, match=r"^Lag must be a positive integer, not 0$"):
         DelayLine(8, 4, lag=0)
+    with pytest.raises(ValueError, match="Group bits"):
+        DelayLine(8, 4, group_bits=9)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
         assert [DelayLine(8, d).depth for d in (0, 14, 15)] == [2, 16, 32]
@@ -248,13 +250,15 @@ def test_cmult_random_and_extremes(form):
 
 # ---------------------------------------------------------------- delay line
 
-@pytest.mark.parametrize("lag", [1, 2])
-def test_delay_line_every_delay_with_gaps(lag):
+@pytest.mark.parametrize("lag, group_bits", [(1, None), (2, None), (1, 5), (2, 16)])
+def test_delay_line_every_delay_with_gaps(lag, group_bits):
     """One word per step (written at its step index), read for each step at a
     delay that changes: out = x[n - lag - d], checked directly and against the
-    model's ``delay_line``."""
+    model's ``delay_line``. With groups of block RAMs (registers of their
+    own) the write is presented a clock before the read for its step, as the
+    engine's common line does."""
     maxd = 13
-    dut = DelayLine(16, maxd, lag)
+    dut = DelayLine(16, maxd, lag, group_bits=group_bits)
     D = dut.depth
     rng = np.random.default_rng(5)
     per = 40
@@ -267,20 +271,28 @@ def test_delay_line_every_delay_with_gaps(lag):
     async def bench(ctx):
         n = 0
         pending = []                   # steps whose read is in the RAM's pipeline
-        while n < len(x) or pending:
+        held = None                    # with groups: the read of the step written a clock ago
+        while n < len(x) or pending or held is not None:
             en = next(en_pat) if n < len(x) else 0
             ctx.set(dut.w_en, en)
+            read = n if en else None
             if en:
                 ctx.set(dut.w_index, n % D); ctx.set(dut.w_data, int(x[n]))
-                # the read for step n in the same clock as its write
-                ctx.set(dut.r_index, n % D); ctx.set(dut.r_delay, int(delays[n]))
-            pending = [(k, t - 1) for k, t in pending]
-            if pending and pending[0][1] == 0:
+                n += 1
+            else:                      # don't-care values where nothing is written or read
+                ctx.set(dut.w_index, int(rng.integers(D))); ctx.set(dut.w_data, int(rng.integers(1 << 16)))
+            if group_bits is not None:
+                read, held = held, read
+            if read is not None:       # the read for a step in the clock its write reaches the RAM
+                ctx.set(dut.r_index, read % D); ctx.set(dut.r_delay, int(delays[read]))
+            else:
+                ctx.set(dut.r_index, int(rng.integers(D))); ctx.set(dut.r_delay, int(rng.integers(maxd + 1)))
+            pending = [t - 1 for t in pending]
+            if pending and pending[0] == 0:
                 got.append(ctx.get(dut.o))
                 pending.pop(0)
-            if en:
-                pending.append((n, dut.latency))
-                n += 1
+            if read is not None:
+                pending.append(dut.latency)
             await ctx.tick()
 
     simulate(dut, bench)

@@ -75,22 +75,33 @@ class StreamAddressCheck(Elaboratable):
 
 
 class DelayExactCheck(Elaboratable):
-    def __init__(self, max_delay=6, width=3, lag=1):
-        self.max_delay, self.width, self.lag = max_delay, width, lag
+    def __init__(self, max_delay=6, width=3, lag=1, group_bits=None):
+        self.max_delay, self.width, self.lag, self.group_bits = max_delay, width, lag, group_bits
 
     def elaborate(self, platform):
         m = Module()
         maxd, W, lag = self.max_delay, self.width, self.lag
-        m.submodules.dut = dut = DelayLine(W, maxd, lag)
+        m.submodules.dut = dut = DelayLine(W, maxd, lag, group_bits=self.group_bits)
         wr, rd, late, x, d = AnySeq(1), AnySeq(1), AnySeq(1), AnySeq(W), AnySeq(range(maxd + 1))
         count = Signal(range(dut.depth))          # the step the next write is for
         m.d.comb += [Assume(d <= maxd), Assume(~ResetSignal()),
-                     dut.w_en.eq(wr), dut.w_index.eq(count), dut.w_data.eq(x),
                      # a read for the step being written (``late`` 0: the common line) or
                      # for the one before (1: a window, read after its step's write)
                      dut.r_index.eq(count - late), dut.r_delay.eq(d)]
-        with m.If(wr):
-            m.d.sync += count.eq(count + 1)
+        if self.group_bits is None:
+            m.d.comb += [dut.w_en.eq(wr), dut.w_index.eq(count), dut.w_data.eq(x)]
+            with m.If(wr):
+                m.d.sync += count.eq(count + 1)
+        else:
+            # with groups a write is presented a clock before it reaches the RAM:
+            # wr, x and count below are the write as it reaches it
+            wr_early, x_early = AnySeq(1), AnySeq(W)
+            count_early = Signal.like(count)
+            m.d.comb += [dut.w_en.eq(wr_early), dut.w_index.eq(count_early), dut.w_data.eq(x_early)]
+            wr, x = Signal(), Signal(W)
+            m.d.sync += [wr.eq(wr_early), x.eq(x_early), count.eq(count_early)]
+            with m.If(wr_early):
+                m.d.sync += count_early.eq(count_early + 1)
         # How the engine uses it: step n + 1 is never written in the clock of a
         # read for step n that follows step n's write (the window reads a step
         # between its write and the next), nor in the clock after any read for
@@ -128,6 +139,8 @@ CHECKS = {
     "delay_exact": (lambda: DelayExactCheck(max_delay=2, width=2), "bmc", 24),
     # depth-8 RAM, 30 clocks
     "delay_exact_deep": (lambda: DelayExactCheck(max_delay=6, width=2), "bmc", 30),
+    # the common line's form: groups of block RAMs, the write a clock ahead
+    "delay_exact_groups": (lambda: DelayExactCheck(max_delay=2, width=2, group_bits=1), "bmc", 24),
 }
 
 
