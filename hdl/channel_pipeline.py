@@ -9,7 +9,7 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .cmult import ComplexMultiplier
-from .ecp5_primitives import RegisteredMultiplier, kept_register
+from .ecp5_primitives import RegisteredMultiplier
 from .delay_line import DelayLine
 from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
@@ -622,19 +622,21 @@ class ChannelPipeline(wiring.Component):
         # the RAM's output register went straight into the multipliers' input
         # registers, the latest path of a two-pipeline build (7.9 ns, 6.9 of
         # it routing, docs/bitstream.md). c[n] comes from the common line 3
-        # clocks after the period start and is written just after the last
-        # read of the step before (a write for step n + 1 never meets a read for
-        # step n at the RAM: tests/formal/replay_formal.py's rule); its last
-        # register is this pipeline's own (kept: the common line feeds every
-        # pipeline's window, and Yosys merges equal registers).
-        m.submodules.window = win = DelayLine(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG)
+        # clocks after the period start and reaches the RAM just after the
+        # last read of the step before (a write for step n + 1 never meets a
+        # read for step n at the RAM: tests/formal/replay_formal.py's rule).
+        # Each of the window's block RAMs has its write and read-address
+        # registers of its own (the line's groups), so the write is handed to
+        # the line a clock before it reaches the RAM.
+        m.submodules.window = win = DelayLine(
+            2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG,
+            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG))
         assert win.depth == W
         read_at = WORD_CYCLES - win.latency - 1
-        write_at = V + read_at + 1                    # clocks after the period start
-        wen = _delay(m, start & self.accept, write_at, "win_wen")
-        wdata = _delay(m, self.win_data, write_at - DelayLine.latency - 1, "win_wdata", data=True)
-        wdata = kept_register(m, platform, wdata, "win_wdata_own")
-        windex = _delay(m, nidx_h, write_at - 1, "win_windex", data=True)
+        write_at = V + read_at + 1                    # clocks after the period start, at the RAM
+        wen = _delay(m, start & self.accept, write_at - 1, "win_wen")
+        wdata = _delay(m, self.win_data, write_at - 1 - DelayLine.latency, "win_wdata", data=True)
+        windex = _delay(m, nidx_h, write_at - 2, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
                      win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex", data=True)),
                      win.r_delay.eq(_delay(m, rg.tap, read_at, "win_rdelay", data=True))]

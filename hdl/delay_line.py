@@ -4,7 +4,7 @@ from amaranth.hdl import Module, Signal, Cat, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from .ecp5_primitives import RegisteredRAM, kept_register
+from .ecp5_primitives import RegisteredRAM, kept_register, dp16kd_mode
 from ..model.fixedpoint import delay_depth
 
 __all__ = ["DelayLine"]
@@ -82,6 +82,14 @@ class DelayLine(wiring.Component):
             "o": Out(unsigned(width)),
         })
 
+    @staticmethod
+    def slice_bits(width, max_delay, lag=1):
+        """Bits per block RAM of a line of this shape on ECP5 (``width`` when
+        it is deeper than a DP16KD): the ``group_bits`` that gives every block
+        RAM registers of its own."""
+        mode = dp16kd_mode(width, delay_depth(max_delay + lag - 1))
+        return min(mode[0], width) if mode else width
+
     @property
     def width(self):
         return self._width
@@ -115,7 +123,7 @@ class DelayLine(wiring.Component):
             gw = min(self._group_bits, self._width - g)
             name = f"mem_bits{g}"
             # the read address's register is the group's copy (latency 1 + 2)
-            m.submodules[name] = mem = RegisteredRAM(gw, self._depth, continuous=True)
+            m.submodules[name] = mem = RegisteredRAM(gw, self._depth, continuous=True, output_reset=False)
             assert 1 + mem.latency == self.latency
             m.d.comb += [mem.w_en.eq(kept_register(m, platform, self.w_en, f"{name}_w_en", reset=True)),
                          mem.w_addr.eq(kept_register(m, platform, self.w_index, f"{name}_w_index")),

@@ -124,6 +124,13 @@ class RegisteredRAM(wiring.Component):
     RAMs into one driving every block RAM's output enable (the pool's worst
     path, 8.5 ns, in a 10-channel build).
 
+    With ``output_reset`` False (continuous RAMs only) ``r_data`` is not
+    reset either: a RAM whose words are data, read only under strobes that
+    are reset (the engine's pool and delay lines), then has no reset net
+    reaching its block RAMs. (The reset reached a window's block RAM in
+    fabric from the register before its global buffer: 9.1 ns, the latest
+    path of a four-pipeline build.)
+
     Parameters
     ----------
     width, depth : int
@@ -137,6 +144,9 @@ class RegisteredRAM(wiring.Component):
         to Yosys (distributed RAM for a few dozen words).
     continuous : bool
         Read every clock (no ``r_en``).
+    output_reset : bool
+        Clear ``r_data`` with the domain's reset (default); ``False`` only
+        with ``continuous``.
     sites : sequence of str, optional
         On ECP5, the bel of each DP16KD slice (lowest bits first), as nextpnr
         names them (:func:`block_ram_rows`): the slices are placed there
@@ -150,7 +160,7 @@ class RegisteredRAM(wiring.Component):
     """
 
     def __init__(self, width, depth, init=(), *, addr_reg=False, block_ram=True, continuous=False,
-                 sites=None):
+                 sites=None, output_reset=True):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"RAM width must be a positive integer, not {width!r}")
         if not isinstance(depth, int) or isinstance(depth, bool) or depth < 2:
@@ -168,6 +178,12 @@ class RegisteredRAM(wiring.Component):
             if mode is None or not all(isinstance(x, str) for x in sites) or len(sites) != mode[1]:
                 raise ValueError(f"RAM sites must be {mode[1] if mode else 'no'} bel names (one per "
                                  f"block RAM of a {depth} x {width} RAM), not {sites!r}")
+        if not isinstance(output_reset, bool):
+            raise TypeError(f"Output reset must be a bool, not {output_reset!r}")
+        if not output_reset and not continuous:
+            raise ValueError("Output reset may be left out only with continuous reads (a RAM with "
+                             "r_en holds r_data at 0 until primed, through its reset)")
+        self._output_reset = output_reset
         self._addr_reg = addr_reg
         self._block_ram = block_ram
         self._continuous = continuous
@@ -230,8 +246,12 @@ class RegisteredRAM(wiring.Component):
         r_en = self._read_enable()
         m.d.comb += [wr.en.eq(self.w_en), wr.addr.eq(self.w_addr), wr.data.eq(self.w_data),
                      rd.en.eq(r_en), rd.addr.eq(r_addr)]
+        r_data = self.r_data
+        if not self._output_reset:
+            r_data = Signal.like(self.r_data, name="r_data_q", reset_less=True)
+            m.d.comb += self.r_data.eq(r_data)
         with m.If(r_en & primed):
-            m.d.sync += self.r_data.eq(rd.data)
+            m.d.sync += r_data.eq(rd.data)
         return m
 
     def _elaborate_ecp5(self, w, slices):
@@ -283,7 +303,7 @@ class RegisteredRAM(wiring.Component):
                 i_CLKA=ClockSignal("sync"), i_CEA=Const(1), i_OCEA=Const(1), i_WEA=self.w_en,
                 i_RSTA=Const(0),
                 i_CLKB=ClockSignal("sync"), i_CEB=r_en, i_OCEB=oce, i_WEB=Const(0),
-                i_RSTB=ResetSignal("sync"),
+                i_RSTB=ResetSignal("sync") if self._output_reset else Const(0),
                 **ports)
         return m
 

@@ -9,7 +9,7 @@ from .iq import IQ
 from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
-from .ecp5_primitives import kept_register, dp16kd_mode
+from .ecp5_primitives import kept_register
 from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
@@ -254,9 +254,9 @@ class WindFarmReplay(wiring.Component):
         # read-address registers (one register fed all 16: 7.7 ns of routing
         # in a two-pipeline build, docs/bitstream.md); the write is handed over
         # in the accepting clock, its registers are the line's.
-        mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
-        m.submodules.common = common = DelayLine(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
-                                                 group_bits=mode[0] if mode else 2 * INPUT_WIDTH)
+        m.submodules.common = common = DelayLine(
+            2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
+            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG))
         assert common.depth == c.common_depth and common.latency == 3 and ACCEPT_LAG == 1
         cnt = Signal(range(c.common_depth))
         n_q = Signal.like(cnt)

@@ -82,7 +82,7 @@ class StreamPool(wiring.Component):
         m.d.comb += [self.d_valid.eq(valid[L]), self.d_tag.eq(tag[L])]
         if self._banks == 1:
             m.submodules.bank0 = ram = RegisteredRAM(2 * STREAM_WIDTH, self._words, init=self._init,
-                                                     addr_reg=True, continuous=True)
+                                                     addr_reg=True, continuous=True, output_reset=False)
             m.d.comb += [ram.w_en.eq(self.w_en), ram.w_addr.eq(self.w_addr), ram.w_data.eq(self.w_data),
                          ram.r_addr.eq(self.r_addr), self.d_data.eq(ram.r_data)]
             return m
@@ -144,7 +144,7 @@ class StreamPool(wiring.Component):
                 name = f"bank{b}_bits{g}"
                 ram = RegisteredRAM(gw, BW, init=[(w >> g) & ((1 << gw) - 1)
                                                   for w in self._init[b * BW:(b + 1) * BW]],
-                                    addr_reg=True, continuous=True,
+                                    addr_reg=True, continuous=True, output_reset=False,
                                     sites=floorplan[gi][b] if floorplan else None)
                 m.submodules[name] = ram
                 m.d.comb += [ram.w_en.eq(kept_register(m, platform, we, f"{name}_w_en", reset=True)),

@@ -205,7 +205,7 @@ def edit_cell(netlist: str, cell: str, key: str, old: str, new: str, occurrence:
 
 
 def ram_lockstep_sources(width: int, depth: int, *, addr_reg: bool = False, continuous: bool = False,
-                         board: str = "ulx3s-85f"):
+                         output_reset: bool = True, board: str = "ulx3s-85f"):
     """``({file: text}, toplevel)``: :class:`rast.hdl.ecp5_primitives.RegisteredRAM` twice, side by
     side on the same inputs: its behavioural Verilog (``ram_rtl``, what the other cosimulations
     run) and its ECP5 netlist with the DP16KD model (``ram_net``, what goes on the board).
@@ -216,7 +216,7 @@ def ram_lockstep_sources(width: int, depth: int, *, addr_reg: bool = False, cont
     from amaranth.back import verilog
     from rast.gateware.platforms import make_platform
     from rast.hdl.ecp5_primitives import RegisteredRAM
-    kw = dict(addr_reg=addr_reg, continuous=continuous)
+    kw = dict(addr_reg=addr_reg, continuous=continuous, output_reset=output_reset)
     rtl = verilog.convert(RegisteredRAM(width, depth, **kw), name="ram_rtl", emit_src=False)
     net = synthesize(RegisteredRAM(width, depth, **kw), "ram_net", make_platform(board))
     r_en = "" if continuous else ".r_en(r_en), "        # a continuous RAM reads every clock

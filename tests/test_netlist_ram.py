@@ -12,10 +12,11 @@ MODULE = "rast.sim.tb_netlist"
 SHAPES = {"x18": (32, 1024), "x4": (8, 4096), "x1": (8, 16384)}
 
 
-def _run(shape, addr_reg, continuous=False, **tb):
+def _run(shape, addr_reg, continuous=False, output_reset=True, **tb):
     width, depth = SHAPES[shape]
-    sources, top = ram_lockstep_sources(width, depth, addr_reg=addr_reg, continuous=continuous)
-    label = f"ram-lockstep-{shape}{'-continuous' if continuous else ''}"
+    sources, top = ram_lockstep_sources(width, depth, addr_reg=addr_reg, continuous=continuous,
+                                        output_reset=output_reset)
+    label = f"ram-lockstep-{shape}{'-continuous' if continuous else ''}{'' if output_reset else '-noreset'}"
     b = runner.build(sources, top, simulator="verilator", label=label)
     runner.run(b, MODULE, name=label, testcase="lockstep", quiet=True,
                extra_env={"RAST_TB_PARAMS": __import__("json").dumps(dict(width=width, depth=depth, **tb))})
@@ -33,6 +34,13 @@ def test_continuous_reset_mid_run(addr_reg):
     """A RAM that reads every clock (the stream pool's), its enables tied high: r_data equal
     every cycle through resets too."""
     _run("x1", addr_reg, continuous=True, seed=4, cycles=3000, resets=60, same_word=0)
+
+
+@pytest.mark.parametrize("addr_reg", [False, True], ids=["latency2", "latency3"])
+def test_continuous_without_output_reset_mid_run(addr_reg):
+    """The same without the output register's reset (the engine's data RAMs): the block RAM's
+    output and the behavioural one keep their word through a reset alike."""
+    _run("x1", addr_reg, continuous=True, output_reset=False, seed=4, cycles=3000, resets=60, same_word=0)
 
 
 def test_read_of_the_word_being_written_differs():
