@@ -729,9 +729,18 @@ class ChannelPipeline(wiring.Component):
                 prev, _ = _ring_delay(m, acc, M - 1, [0] * (M - 1), f"fir_accs_{part}")
             m.d.sync += acc.eq(Mux(fprod.valid, Mux(fprod.first, prod, prev + prod), prev))
             rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}", reset_less=True)
-            m.d.sync += rounded.eq((acc + (1 << (FIR_COEF_FRAC - 1))) >> FIR_COEF_FRAC)
+            half = 1 << (FIR_COEF_FRAC - 1)
+            m.d.sync += rounded.eq((acc + half) >> FIR_COEF_FRAC)
             lo, hi = -(1 << (W - 1)), (1 << (W - 1)) - 1
-            m.d.sync += getattr(res, part).eq(Mux(rounded > hi, hi, Mux(rounded < lo, lo, rounded)))
+            # rounded > hi and rounded < lo, decided on the accumulator beside
+            # the rounding (floor((a + half) / 2**F) > hi <=> a >= (hi + 1) * 2**F
+            # - half, < lo <=> a < lo * 2**F - half): the compares after the
+            # rounding, then the clip, were 7.5 ns in a two-pipeline build
+            over = Signal(name=f"fir_over_{part}", reset_less=True)
+            under = Signal(name=f"fir_under_{part}", reset_less=True)
+            m.d.sync += [over.eq(acc >= ((hi + 1) << FIR_COEF_FRAC) - half),
+                         under.eq(acc < (lo << FIR_COEF_FRAC) - half)]
+            m.d.sync += getattr(res, part).eq(Mux(over, hi, Mux(under, lo, rounded)))
         # addresses, ROM levels (the word beside), multiplier in and out, product,
         # accumulator, round, saturate
         assert 1 + 2 + 2 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES

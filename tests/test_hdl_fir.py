@@ -8,7 +8,8 @@ import pytest
 from rast.hdl.replay_top import WindFarmReplay
 from rast.model import datapath as dp
 from rast.model.fixedpoint import (pack_iq, FIR_MAX_INCREMENT, FIR_MIN_LENGTH, FIR_REFILL_SAMPLES,
-                                   FIR_PHASES, PHASE_FRAC_BITS, STREAM)
+                                   FIR_PHASES, PHASE_FRAC_BITS, STREAM, FIR_LEAD, FIR_COEF_FRAC,
+                                   fir_coefficients)
 from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, stream_crc32
 from rast.model.powerup import ChannelInit
 
@@ -51,6 +52,34 @@ def test_fir_at_its_highest_rate_matches_model(valid, ready, slots):
     # muted while the cache fills and the MAC computes after reset, then playing
     R = dut.contract.refill_samples
     assert np.count_nonzero(hi[dut.latency + R:]) > 0.9 * (T - dut.latency - R)
+
+
+@pytest.mark.parametrize("slots", [1, 3])
+def test_fir_saturates_both_ways_like_the_model(slots):
+    """Full-scale words +, +, -, - (a tone at a quarter of the stream rate,
+    its peaks between the words 41 % above full scale) overshoot in the FIR:
+    its U values clip at both ends of the 16-bit range, integer equal to the
+    model. The input is half scale, so the output itself does not clip and
+    one LSB of U shows at the output."""
+    L = 16
+    square = np.where((np.arange(L) // 2) % 2 == 0, STREAM.max, STREAM.min)
+    # the stream's unsaturated FIR sums (fixedpoint: U = sat(round(sum_k c[p][k] m[w + FIR_LEAD - k])))
+    c = np.array(fir_coefficients(), dtype=np.int64)
+    j = np.arange(L)
+    sums = np.array([[sum(int(c[p, k]) * int(square[(w + FIR_LEAD - k) % L]) for k in range(c.shape[1]))
+                      for w in j] for p in range(c.shape[0])])
+    assert (sums > STREAM.max << FIR_COEF_FRAC).any() and (sums < STREAM.min << FIR_COEF_FRAC).any(), \
+        "the stream does not overshoot: the test would not reach the saturation"
+    words = pack_iq(square, -square)
+    inits = [ChannelInit(tuple(int(w) for w in words), FIR_MAX_INCREMENT, 1 << 16, 0, True, 0)]
+    dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
+    T = 5000                       # a word every 768 samples at this increment
+    xi, xq = np.full(T, 1 << 14), np.zeros(T, dtype=np.int64)
+    hi, hq, _ = _check(dut, inits, xi, xq, name="fir saturation")
+    R = dut.latency + dut.contract.refill_samples
+    # U at its rails (32767, -32768) times a half-scale input: the output's extremes
+    assert hi[R:].max() >= (1 << 14) - 1 and hi[R:].min() <= -(1 << 14) + 1, \
+        "the clipped U values do not reach the output"
 
 
 @pytest.mark.parametrize("seed, slots", [(1, 1), (2, 3)])
