@@ -35,6 +35,9 @@ LADDER = {
                    dict(channels=10, pool_words=16384)),
     "n10p_20_200": ("one pipeline of the default with the default's 81,920-word pool (five banks)",
                     dict(channels=10)),
+    "n20p_20_200": ("two pipelines of the default with its whole pool: how fmax falls with the pipelines",
+                    dict(channels=20)),
+    "n40p_20_200": ("four pipelines of the default with its whole pool", dict(channels=40)),
     "n10_10_100": ("one pipeline at 100 MHz (10 channels at 10 MS/s, M = 10): the CI build",
                    dict(channels=10, sample_rate_mhz=10, clock_mhz=100, pool_words=16384)),
 }
