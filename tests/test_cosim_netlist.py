@@ -41,8 +41,8 @@ def test_netlist_top(kind, seed):
 
 
 #: A register mode flipped in one primitive of a netlist copy (cell, key, right, wrong, which
-#: instance having it): the output register of the common delay window's DP16KD holding bits 12
-#: and 13 of its words (8192 x 2 slices). The stream pool's DP16KD holding bit 13 was the case
+#: instance having it): the output register of the common delay line's DP16KD holding bits 12
+#: and 13 of its words (8192 x 2 slices, one group each). The stream pool's DP16KD holding bit 13 was the case
 #: until the pool read every clock: its bank's address is held between reads of that bank, so a
 #: slice one clock early still returned the same word in this farm (only two fetches of one bank
 #: in consecutive clocks would show it). Each case costs a Verilator build of the whole netlist
@@ -52,7 +52,7 @@ def test_netlist_top(kind, seed):
 #: real-part gain multiplier, the fifth MULT18X18D, was also caught here; a sign of the first
 #: complex-product multiplier was not: in this short farm its operands stay of one sign.)
 WRONG_SETTINGS = {
-    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "common.mem.bram6"),
+    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "common.mem_bits12.bram0"),
 }
 
 
