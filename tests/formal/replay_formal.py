@@ -5,8 +5,8 @@
   :class:`~rast.hdl.channel_pipeline.ChannelPipeline` of M slots, that in
   every position of its state ring (the slot at the head, the one in the
   update's second stage, the ones going round) the read index never leaves
-  the active length (``idx <= len_m1 < pool``, the registered wrap flag
-  agreeing) and every fetch asks for a word of the slot's own stream (the
+  the active length (the steps left to the wrap ``left <= len_m1 < pool``,
+  the registered wrap flag agreeing) and every fetch asks for a word of the slot's own stream (the
   fetch index below the length, ``f_addr - base`` equal to it modulo the
   address width), under arbitrary input steps, register values and
   commands, fetch offers and pool answers.
@@ -66,8 +66,8 @@ class StreamAddressCheck(Elaboratable):
         for k, st in enumerate(dut.ring_states):
             offset = Signal(aw, name=f"offset{k}")
             m.d.comb += [offset.eq(st.f_addr - st.base),
-                         Assert(st.len_m1 < D), Assert(st.idx <= st.len_m1),
-                         Assert(st.last == (st.idx == st.len_m1))]
+                         Assert(st.len_m1 < D), Assert(st.left <= st.len_m1),
+                         Assert(st.last == (st.left == 0))]
             with m.If(~st.restart):
                 m.d.comb += [Assert(st.f_idx <= st.len_m1), Assert(offset == st.f_idx)]
         # the request the pipeline sends is one its state allowed (registered a clock later)
