@@ -361,9 +361,23 @@ class ChannelPipeline(wiring.Component):
             "grant": 1, "fwrap": 1, "f_idx1": range(c.pool_words), "f_addr1": c.pool_address_width,
             "start": 1, "issue": 1, "last_tap": 1, "release": 1, "jstep": 1,
             "refill1": range(R + 1), "refill_more": 1, "refill_jobs": 1,
+            # the sums stage B selects from (its adders were most of its
+            # paths, 7.0 ns at two pipelines)
+            "f_addr0": SL.members["f_addr"], "f_pos1": SL.members["f_pos"],
+            "ahead_up": SL.members["ahead"], "ahead_dn": SL.members["ahead"],
+            "cpos1": SL.members["cpos"], "rpos0": SL.members["rpos"], "rpos1": SL.members["rpos"],
+            "tap1": SL.members["tap"], "tp1": SL.members["tp"], "tp_last": 1,
+            "seq1": SL.members["seq"], "jobs_up": SL.members["jobs"], "jobs_dn": SL.members["jobs"],
         })
         ML = data.StructLayout(mid_fields)
-        mid = Signal(ML, name="st_mid") if M == 1 else Signal(ML, init={**init_at(1)}, name="st_mid")
+        if M == 1:
+            mid = Signal(ML, name="st_mid")
+        else:
+            # at power-up the slot in stage B restarts its fetcher (the only
+            # sum it takes then): its restart address beside its state
+            i1 = init_at(1)
+            f_addr0 = (i1["base"] + i1["f_start"]) % (1 << c.pool_address_width)
+            mid = Signal(ML, init={**i1, "f_addr0": f_addr0}, name="st_mid")
         st = head
         rg = rsel
         force = Signal(); req = Signal(); pend = Signal(); en = Signal(); carry = Signal()
@@ -391,11 +405,20 @@ class ChannelPipeline(wiring.Component):
         a["left1"] = st.left - 1
         a["left_one"] = st.left == 1
         a["len0"] = st.len_m1 == 0
-        a["n_len_m1"] = rg.length - 1
+        # the new stream's length - 1, length == 1 and the fetcher's restart
+        # index, from the register values a clock before the visit where the
+        # slot multiplexer leaves one (rsel.length -> n_fstart was 6.9 ns)
+        new_stream = {"n_len_m1": lambda n: n - 1, "n_last": lambda n: n == 1,
+                      "n_fstart": lambda n: Mux(n > back, n - back, 0) if back else 0}
+        length_early = _delay(m, self.values, V - 2, "rsel_early").length if V >= 2 else None
+        for k, fn in new_stream.items():
+            if V >= 2:
+                a[k] = Signal(ML.members[k], name=f"rsel_{k}")
+                m.d.sync += a[k].eq(fn(length_early))
+            else:
+                a[k] = fn(rg.length)
         a["n_inc"] = rg.increment
         a["n_base"] = rg.base
-        a["n_last"] = rg.length == 1
-        a["n_fstart"] = Mux(rg.length > back, rg.length - back, 0) if back else 0
         present_v = Signal()
         m.d.comb += present_v.eq(present.bit_select(vslot, 1) if M > 1 else present[0])
         want = (st.ahead < CACHE_FILL_WORDS) & ~st.restart & present_v
@@ -406,12 +429,25 @@ class ChannelPipeline(wiring.Component):
         a["refill1"] = st.refill - 1
         a["refill_more"] = st.refill != 1
         a["refill_jobs"] = st.refill <= FIR_REFILL_SAMPLES + 1
+        a["f_addr0"] = st.base + st.f_start
+        a["f_pos1"] = st.f_pos + 1
+        a["ahead_up"] = st.ahead + 1
+        a["ahead_dn"] = st.ahead - 1
+        a["cpos1"] = st.cpos + 1
         if fir:
             a["start"] = st.jobs_ok & ~st.issuing & (st.jobs != 0)
             a["issue"] = st.issuing
             a["last_tap"] = st.tap == T - 1
             a["release"] = st.issuing & (st.tap == T - 1) & st.adv
             a["jstep"] = en & (st.acc[F - PB:] != st.frac[F - PB:])
+            a["rpos0"] = st.cpos + T - 1
+            a["rpos1"] = st.rpos - 1
+            a["tap1"] = st.tap + 1
+            a["tp1"] = st.tp + 1
+            a["tp_last"] = st.tp == (1 << PB) - 1
+            a["seq1"] = Mux(st.seq == 2, 2, st.seq + 1)
+            a["jobs_up"] = st.jobs + 1
+            a["jobs_dn"] = st.jobs - 1
         else:
             a["release"] = en & carry & ~wrap_sw
         mid_next = Signal(ML, name="mid_next")
@@ -461,26 +497,27 @@ class ChannelPipeline(wiring.Component):
                              nxt.jobs_ok.eq(x.refill_jobs)]
             # the fetcher: restart (the visit after a switch), or one fetch
             with m.If(x.restart):
-                m.d.comb += [nxt.f_idx.eq(x.f_start), nxt.f_addr.eq(x.base + x.f_start),
+                m.d.comb += [nxt.f_idx.eq(x.f_start), nxt.f_addr.eq(x.f_addr0),
                              nxt.f_pos.eq(0), nxt.ahead.eq(0), nxt.cpos.eq(0)]
             with m.Else():
                 with m.If(x.grant):
                     m.d.comb += [nxt.f_idx.eq(Mux(x.fwrap, 0, x.f_idx1)),
                                  nxt.f_addr.eq(Mux(x.fwrap, x.base, x.f_addr1)),
-                                 nxt.f_pos.eq(x.f_pos + 1)]
-                m.d.comb += [nxt.ahead.eq(x.ahead + x.grant - x.release),
-                             nxt.cpos.eq(x.cpos + x.release)]
+                                 nxt.f_pos.eq(x.f_pos1)]
+                m.d.comb += [nxt.ahead.eq(Mux(x.grant == x.release, x.ahead,
+                                              Mux(x.grant, x.ahead_up, x.ahead_dn))),
+                             nxt.cpos.eq(Mux(x.release, x.cpos1, x.cpos))]
             if fir:
                 with m.If(x.start):
                     m.d.comb += [nxt.issuing.eq(1), nxt.tap.eq(0), nxt.cphase.eq(x.tp),
-                                 nxt.dest.eq(x.seq), nxt.rpos.eq(x.cpos + T - 1), nxt.tp.eq(x.tp + 1),
-                                 nxt.adv.eq(x.tp == (1 << PB) - 1),
-                                 nxt.seq.eq(Mux(x.seq == 2, 2, x.seq + 1))]
+                                 nxt.dest.eq(x.seq), nxt.rpos.eq(x.rpos0), nxt.tp.eq(x.tp1),
+                                 nxt.adv.eq(x.tp_last), nxt.seq.eq(x.seq1)]
                 with m.Elif(x.issue):
-                    m.d.comb += [nxt.tap.eq(x.tap + 1), nxt.rpos.eq(x.rpos - 1)]
+                    m.d.comb += [nxt.tap.eq(x.tap1), nxt.rpos.eq(x.rpos1)]
                     with m.If(x.last_tap):
                         m.d.comb += nxt.issuing.eq(0)
-                m.d.comb += nxt.jobs.eq(x.jobs + x.jstep - x.start)
+                m.d.comb += nxt.jobs.eq(Mux(x.jstep == x.start, x.jobs,
+                                            Mux(x.jstep, x.jobs_up, x.jobs_dn)))
                 with m.If(x.jstep):
                     m.d.comb += [nxt.u0.eq(x.u1), nxt.u1.eq(x.u2)]
         if fir:
