@@ -55,8 +55,10 @@ def match_stages(slots: int) -> int:
     """Registered levels of the SWAP check (the run's start, words and CRC
     against a channel's BASE, LENGTH and CRC): none at M = 1, one at M = 2,
     two from M = 3 (the comparisons, then their AND: about 60 bits compared
-    in one clock was a 200 MHz build's worst path, 7.2 ns, docs/bitstream.md)."""
-    return min(2, slots - 1)
+    in one clock was a 200 MHz build's worst path, 7.2 ns, docs/bitstream.md),
+    three from M = 8 (the RAMs' words registered first: their read and the
+    comparison, 9.8 ns at 64 channels; ``write_staging`` gives the clock)."""
+    return min(2, slots - 1) if slots < 8 else 3
 
 
 def crc_clocks(slots: int) -> int:
@@ -538,17 +540,17 @@ class RegisterFile(wiring.Component):
             # them, the latest path of two- and four-pipeline builds)
             raw = {name: ram_reads[g][name][0](kept_register(m, platform, slot_at(src), f"match_slot_{name}_g{g}"))
                    for name in ("base", "length", "crc")}
+            m_hit = m_hit & ~unstated[g].bit_select(m_slot, 1)
+            if stages == 3:
+                raw = {name: landing(word, len(word), f"match_{name}_g{g}", data=True)
+                       for name, word in raw.items()}
+                m_hit = landing(m_hit, 1, f"match_hit_r_g{g}")
             parts = Cat(equal_parts(run_start, raw["base"]),
                         equal_parts(run_count, raw["length"]),
                         equal_parts(~run_crc, raw["crc"]))
-            stated = ~unstated[g].bit_select(m_slot, 1)
-            if stages == 2:
-                parts_q = Signal(len(parts), name=f"match_parts_g{g}")
-                hit_q = Signal(name=f"match_hit_q_g{g}")
-                m.d.sync += [parts_q.eq(parts), hit_q.eq(m_hit & stated)]
-                parts, m_hit = parts_q, hit_q
-            else:
-                m_hit = m_hit & stated
+            if stages >= 2:
+                parts = landing(parts, len(parts), f"match_parts_g{g}")
+                m_hit = landing(m_hit, 1, f"match_hit_q_g{g}")
             group_match.append(m_hit & parts.all())
         match = Cat(group_match).any()
         if stages >= 1:

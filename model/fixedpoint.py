@@ -388,8 +388,13 @@ def write_staging(slots: int) -> int:
     M = 2 (the decode, then the copies per pipeline, each registered), else 3
     (the bus first in a register of the register file's own: the bridge's
     data register sat far from the decode and the LENGTH clamp in the SDRAM
-    build, 7.4 ns of routing into the clamp, docs/bitstream.md)."""
-    return min(3, slots)
+    build, 7.4 ns of routing into the clamp, docs/bitstream.md), and 4 from
+    M = 8, where the SWAP check takes a third registered level (the register
+    file's RAM words registered before they are compared: the RAM's read
+    and the comparison in one clock were the 64-channel build's worst path,
+    9.8 ns). The take moves with it, so a write still takes effect at the
+    same step."""
+    return min(3, slots) if slots < 8 else 4
 
 
 def tree_levels(pipelines: int) -> int:

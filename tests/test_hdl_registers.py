@@ -7,7 +7,7 @@ from amaranth.hdl import Module, Signal, ResetInserter
 from amaranth.sim import Simulator
 
 from rast.hdl.registers import RegisterFile, SLOT_RAM_FIELDS
-from rast.model.fixedpoint import ReplayContract
+from rast.model.fixedpoint import ReplayContract, write_staging
 from rast.model.powerup import ChannelInit
 from rast.model.regmap import register_map
 
@@ -22,7 +22,7 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
              for _ in range(channels)]
     rmap = register_map(c, inits)
     groups = [list(range(p * slots, min(channels, (p + 1) * slots))) for p in range(c.pipelines)]
-    wd = 3
+    wd = max(3, write_staging(slots))       # the engine's from M = 8
     dut = RegisterFile(rmap, write_delay=wd, groups=groups, slots=slots)
     rst = Signal()
     top = Module()

@@ -543,7 +543,7 @@ def test_a_reset_mid_run_drops_every_sample_in_flight(slots, interpolation):
     assert np.count_nonzero(new[R:]) > 0, "the channels should play again after the refill"
 
 
-@pytest.mark.parametrize("slots", [1, 2, 3, 4, 5, 6, 7, 10])
+@pytest.mark.parametrize("slots", [1, 2, 3, 4, 5, 6, 7, 8, 10])
 def test_a_swap_right_after_the_last_stream_word_is_taken(slots):
     """CTRL's SWAP written just after the stream's last word (the two land M
     clocks apart, the closest the bus allows): the CRC of that word
