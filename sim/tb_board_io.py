@@ -13,7 +13,8 @@ for the second; pin sample k begins at its k-th rising edge.
   middle of its high phase (the ``IDDRX1F`` takes I on the rising edge, Q on
   the falling edge);
 * DAC pins: read in the middle of each phase of ``dac_clk``: the I half
-  (``dac_iq`` high) in the high phase, the Q half in the low phase;
+  (``dac_iq`` high) in the high phase, the Q half in the low phase; and in
+  every half clock of it, to see that the pins hold one value per phase;
 * UART ``rx``: 8N1 frames of :mod:`rast.model.hostproto`, bits of ``divisor``
   fabric clocks changing at falling edges; ``tx`` is read at every falling
   edge and decoded after the run.
@@ -76,6 +77,7 @@ class _Bench:
         self.rx = []             # line level per fabric clock
         self.tx = []
         self.dac = {}            # pin sample -> [I, Q, iq during I, iq during Q]
+        self.phase_values = {}   # pin sample -> (the DAC's values in the high phase, in the low phase)
         self.pattern = []        # (adc_clk, dac_clk, dac_iq) per half clock, a few periods
         self._level = 0          # adc_clk's level in the last half clock
         self._half = 0           # half clocks since its last change
@@ -97,6 +99,9 @@ class _Bench:
             self._half += 1
         if self.cycle >= 64 and len(self.pattern) < 8 * self.slots:
             self.pattern.append((level, int(d.dac_clk.value), int(d.dac_iq.value)))
+        if self.sample >= 0:
+            seen = self.phase_values.setdefault(self.sample, (set(), set()))
+            seen[0 if level else 1].add(int(d.dac_data.value))
         if self._half == self._mid and self.sample >= 0:
             k = self.sample
             rec = self.dac.setdefault(k, [0, 0, 0, 0])
@@ -167,7 +172,9 @@ async def board_io(dut):
         rec = [bench.dac.get(t0 + m, [0, 0, 0, 0]) for m in range(step["window"])]
         results.append({"impulse_sample": t0,
                         "nonzero": [[m, i, q] for m, (i, q, _, _) in enumerate(rec) if i or q],
-                        "iq_marker": sorted({(a, b) for _, _, a, b in rec})})
+                        "iq_marker": sorted({(a, b) for _, _, a, b in rec}),
+                        "unsteady": [m for m in range(step["window"])
+                                     if any(len(v) > 1 for v in bench.phase_values.get(t0 + m, ()))]})
     replies = _uart_decode(bench.tx, bench.divisor)
     report = {"steps": results, "acks": replies.count(ACK), "replies": len(replies),
               "frames": frames_sent, "overflow": int(dut.overflow.value),

@@ -89,6 +89,7 @@ def test_impulse_from_adc_pins_to_dac_pins(slots):
     measured = []
     for (what, _, expected), step in zip(cases, rep["steps"]):
         assert step["iq_marker"] == [[1, 0]], what
+        assert step["unsteady"] == [], f"{what}: the DAC pins changed within a phase of dac_clk"
         assert len(step["nonzero"]) == 1, f"{what}: {step['nonzero']}"
         at, i, q = step["nonzero"][0]
         assert (i, q) == ECHO, what
