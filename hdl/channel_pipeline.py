@@ -15,7 +15,7 @@ from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
                                 FIR_COEF_FRAC, FIR_ACC_WIDTH, FIR_REFILL_SAMPLES, CACHE_WORDS,
                                 CACHE_FILL_WORDS, PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH,
-                                WINDOW_LAG, COMMON_LINE_CYCLES, WORD_CYCLES, GAIN_CYCLES, CMULT_CYCLES,
+                                WINDOW_LAG, WORD_CYCLES, GAIN_CYCLES, CMULT_CYCLES,
                                 MAC_RESULT_CYCLES, fir_coefficients, mac_merge_cycles, visit_cycles)
 from ..model.powerup import ChannelInit
 
@@ -678,20 +678,18 @@ class ChannelPipeline(wiring.Component):
         # clocks after the period start and reaches the RAM just after the
         # last read of the step before (a write for step n + 1 never meets a
         # read for step n at the RAM: tests/formal/replay_formal.py's rule).
-        # Each of the window's block RAMs has two write and read-address
-        # registers of its own (the line's groups, lead 2: its block RAMs lie
-        # wherever the pool left room), so the write is handed to the line
-        # two clocks before it reaches the RAM.
+        # Each of the window's block RAMs has its write and read-address
+        # registers of its own (the line's groups), so the write is handed to
+        # the line a clock before it reaches the RAM.
         m.submodules.window = win = DelayLine(
             2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG,
-            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG), lead=2)
+            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG))
         assert win.depth == W
         read_at = WORD_CYCLES - win.latency - 1
-        write_at = V + read_at + win.lead             # clocks after the period start, at the RAM
-        wen = _delay(m, start & self.accept, write_at - win.lead, "win_wen")
-        # c[n] is on win_data COMMON_LINE_CYCLES clocks after the period start
-        wdata = _delay(m, self.win_data, write_at - win.lead - COMMON_LINE_CYCLES, "win_wdata", data=True)
-        windex = _delay(m, nidx_h, write_at - win.lead - 1, "win_windex", data=True)
+        write_at = V + read_at + 1                    # clocks after the period start, at the RAM
+        wen = _delay(m, start & self.accept, write_at - 1, "win_wen")
+        wdata = _delay(m, self.win_data, write_at - 1 - DelayLine.latency, "win_wdata", data=True)
+        windex = _delay(m, nidx_h, write_at - 2, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
                      win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex", data=True)),
                      win.r_delay.eq(_delay(m, rg.tap, read_at, "win_rdelay", data=True))]

@@ -30,14 +30,9 @@ class DelayLine(wiring.Component):
     word) and for the read address, kept apart in synthesis
     (:func:`kept_register`) so that each may sit beside its group: a line
     whose block RAMs are spread over the device is then not fed from one
-    register. A write is then presented ``lead`` clocks before it reaches
-    the RAM (the caller gives ``w_*`` a clock earlier than without groups),
-    and the read's latency is ``2 + lead``: with ``lead`` 2 each group's
-    write and read address pass two registers of their own, so that a block
-    RAM placed far from the logic that feeds it is two routes away, not one
-    (a window's write index, one register beside the pipeline, into a block
-    RAM 61 rows away was 5.6 ns of routing). It is as if every input passed
-    a register before a line of ``lead`` 1.
+    register. A write is then presented a clock before it reaches the RAM
+    (the caller gives ``w_*`` a clock earlier than without groups); the
+    read's latency is the same.
 
     Parameters
     ----------
@@ -50,9 +45,6 @@ class DelayLine(wiring.Component):
         COMMON_LAG / WINDOW_LAG).
     group_bits : int or None
         Bits per group of block RAMs with registers of its own (above).
-    lead : int
-        With groups: 1 or 2, the registers each group's write and read
-        address pass before its RAM.
 
     Members
     -------
@@ -64,7 +56,9 @@ class DelayLine(wiring.Component):
     o : Out(width)
     """
 
-    def __init__(self, width, max_delay, lag=1, *, group_bits=None, lead=1):
+    latency = 3
+
+    def __init__(self, width, max_delay, lag=1, *, group_bits=None):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"Delay line width must be a positive integer, not {width!r}")
         if not isinstance(max_delay, int) or isinstance(max_delay, bool) or max_delay < 0:
@@ -74,10 +68,7 @@ class DelayLine(wiring.Component):
         if group_bits is not None and (not isinstance(group_bits, int) or isinstance(group_bits, bool)
                                        or not 0 < group_bits <= width):
             raise ValueError(f"Group bits must be None or an integer in [1, {width}], not {group_bits!r}")
-        if lead not in (1, 2) or (lead == 2 and group_bits is None):
-            raise ValueError(f"Lead must be 1, or 2 with groups, not {lead!r}")
         self._group_bits = group_bits
-        self._lead = lead
         self._width = width
         self._max_delay = max_delay
         self._lag = lag
@@ -98,16 +89,6 @@ class DelayLine(wiring.Component):
         RAM registers of its own."""
         mode = dp16kd_mode(width, delay_depth(max_delay + lag - 1))
         return min(mode[0], width) if mode else width
-
-    @property
-    def latency(self):
-        """Clocks from ``r_index``/``r_delay`` to ``o``."""
-        return 2 + self._lead
-
-    @property
-    def lead(self):
-        """Clocks from ``w_*`` to the RAM (with groups)."""
-        return self._lead
 
     @property
     def width(self):
@@ -141,18 +122,13 @@ class DelayLine(wiring.Component):
         for g in range(0, self._width, self._group_bits):
             gw = min(self._group_bits, self._width - g)
             name = f"mem_bits{g}"
-            # the read address's registers are the group's copies (latency lead + 2)
+            # the read address's register is the group's copy (latency 1 + 2)
             m.submodules[name] = mem = RegisteredRAM(gw, self._depth, continuous=True, output_reset=False)
-            assert self._lead + mem.latency == self.latency
-
-            def copies(value, what, **kw):
-                for k in range(self._lead):
-                    value = kept_register(m, platform, value, f"{name}_{what}" + ("" if k == 0 else f"_{k}"), **kw)
-                return value
-            m.d.comb += [mem.w_en.eq(copies(self.w_en, "w_en", reset=True)),
-                         mem.w_addr.eq(copies(self.w_index, "w_index")),
-                         mem.w_data.eq(copies(self.w_data[g:g + gw], "w_data")),
-                         mem.r_addr.eq(copies(r_addr, "r_addr"))]
+            assert 1 + mem.latency == self.latency
+            m.d.comb += [mem.w_en.eq(kept_register(m, platform, self.w_en, f"{name}_w_en", reset=True)),
+                         mem.w_addr.eq(kept_register(m, platform, self.w_index, f"{name}_w_index")),
+                         mem.w_data.eq(kept_register(m, platform, self.w_data[g:g + gw], f"{name}_w_data")),
+                         mem.r_addr.eq(kept_register(m, platform, r_addr, f"{name}_r_addr"))]
             words.append(mem.r_data)
         m.d.comb += self.o.eq(Cat(*words))
         return m

@@ -14,7 +14,6 @@ from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
-                                COMMON_LINE_CYCLES,
                                 POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
                                 write_staging, tree_levels, visit_cycles)
 from ..model.regmap import register_map
@@ -258,7 +257,7 @@ class WindFarmReplay(wiring.Component):
         m.submodules.common = common = DelayLine(
             2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
             group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG))
-        assert common.depth == c.common_depth and common.latency == COMMON_LINE_CYCLES and ACCEPT_LAG == 1
+        assert common.depth == c.common_depth and common.latency == 3 and ACCEPT_LAG == 1
         cnt = Signal(range(c.common_depth))
         n_q = Signal.like(cnt)
         m.d.sync += n_q.eq(cnt)

@@ -92,7 +92,7 @@ def unpack_iq(words, width=STREAM_WIDTH):
 
 import math as _math
 
-__all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "ACCEPT_LAG", "COMMON_LINE_CYCLES", "visit_cycles", "WORD_CYCLES",
+__all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "ACCEPT_LAG", "visit_cycles", "WORD_CYCLES",
             "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "write_staging",
             "tree_levels", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
@@ -357,10 +357,6 @@ WINDOW_LAG = 1
 BLOCK_LATENCY = COMMON_LAG + WINDOW_LAG
 #: Clocks from the accepting clock to the pipelines' period start O'.
 ACCEPT_LAG = 1
-#: Clocks from the pipelines' period start to c[n] on their ``win_data``:
-#: the common line's read latency (its read for step n is asked at the
-#: period start; rast.hdl.replay_top).
-COMMON_LINE_CYCLES = 3
 #: Clocks from the visit to the stream word in its register: the cache's
 #: registered address (hold, linear; the FIR's U values wait beside it), the
 #: operands, the difference, the multiplier's input and output registers, the

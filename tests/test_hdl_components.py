@@ -50,8 +50,6 @@ def test_delay_line_parameters():
         DelayLine(8, 4, lag=0)
     with pytest.raises(ValueError, match="Group bits"):
         DelayLine(8, 4, group_bits=9)
-    with pytest.raises(ValueError, match=r"^Lead must be 1, or 2 with groups, not 2$"):
-        DelayLine(8, 4, lead=2)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
         assert [DelayLine(8, d).depth for d in (0, 14, 15)] == [2, 16, 32]
@@ -252,17 +250,15 @@ def test_cmult_random_and_extremes(form):
 
 # ---------------------------------------------------------------- delay line
 
-@pytest.mark.parametrize("lag, group_bits, lead", [(1, None, 1), (2, None, 1), (1, 5, 1), (2, 16, 1),
-                                                   (1, 5, 2), (2, 16, 2)])
-def test_delay_line_every_delay_with_gaps(lag, group_bits, lead):
+@pytest.mark.parametrize("lag, group_bits", [(1, None), (2, None), (1, 5), (2, 16)])
+def test_delay_line_every_delay_with_gaps(lag, group_bits):
     """One word per step (written at its step index), read for each step at a
     delay that changes: out = x[n - lag - d], checked directly and against the
     model's ``delay_line``. With groups of block RAMs (registers of their
     own) the write is presented a clock before the read for its step, as the
-    engine's common line and windows do (whatever the ``lead``: the
-    registers before the RAM delay both alike)."""
+    engine's common line does."""
     maxd = 13
-    dut = DelayLine(16, maxd, lag, group_bits=group_bits, lead=lead)
+    dut = DelayLine(16, maxd, lag, group_bits=group_bits)
     D = dut.depth
     rng = np.random.default_rng(5)
     per = 40

@@ -18,7 +18,6 @@ from replay_formal import run_check   # noqa: E402
     "delay_exact",             # BMC: a read for step n at delay d returns the word of step n - lag - d
     pytest.param("delay_exact_deep", marks=pytest.mark.slow),
     "delay_exact_groups",      # the same, the common line's groups of block RAMs (write a clock ahead)
-    "delay_exact_groups_lead2",  # the windows' groups, two registers before each RAM
 ])
 def test_formal(name, tmp_path):
     ok, log = run_check(name, tmp_path)

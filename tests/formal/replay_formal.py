@@ -75,14 +75,13 @@ class StreamAddressCheck(Elaboratable):
 
 
 class DelayExactCheck(Elaboratable):
-    def __init__(self, max_delay=6, width=3, lag=1, group_bits=None, lead=1):
+    def __init__(self, max_delay=6, width=3, lag=1, group_bits=None):
         self.max_delay, self.width, self.lag, self.group_bits = max_delay, width, lag, group_bits
-        self.lead = lead
 
     def elaborate(self, platform):
         m = Module()
         maxd, W, lag = self.max_delay, self.width, self.lag
-        m.submodules.dut = dut = DelayLine(W, maxd, lag, group_bits=self.group_bits, lead=self.lead)
+        m.submodules.dut = dut = DelayLine(W, maxd, lag, group_bits=self.group_bits)
         wr, rd, late, x, d = AnySeq(1), AnySeq(1), AnySeq(1), AnySeq(W), AnySeq(range(maxd + 1))
         count = Signal(range(dut.depth))          # the step the next write is for
         m.d.comb += [Assume(d <= maxd), Assume(~ResetSignal()),
@@ -94,9 +93,8 @@ class DelayExactCheck(Elaboratable):
             with m.If(wr):
                 m.d.sync += count.eq(count + 1)
         else:
-            # with groups a write is presented a clock before it reaches the RAM
-            # (at lead 2 every input passes one register more, reads alike):
-            # wr, x and count below are the write as it reaches a lead-1 line
+            # with groups a write is presented a clock before it reaches the RAM:
+            # wr, x and count below are the write as it reaches it
             wr_early, x_early = AnySeq(1), AnySeq(W)
             count_early = Signal.like(count)
             m.d.comb += [dut.w_en.eq(wr_early), dut.w_index.eq(count_early), dut.w_data.eq(x_early)]
@@ -143,8 +141,6 @@ CHECKS = {
     "delay_exact_deep": (lambda: DelayExactCheck(max_delay=6, width=2), "bmc", 30),
     # the common line's form: groups of block RAMs, the write a clock ahead
     "delay_exact_groups": (lambda: DelayExactCheck(max_delay=2, width=2, group_bits=1), "bmc", 24),
-    # the windows' form: two registers before each group's RAM
-    "delay_exact_groups_lead2": (lambda: DelayExactCheck(max_delay=2, width=2, group_bits=1, lead=2), "bmc", 24),
 }
 
 
