@@ -9,7 +9,7 @@ from .iq import IQ
 from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
-from .ecp5_primitives import kept_register
+from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode
 from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
@@ -254,9 +254,23 @@ class WindFarmReplay(wiring.Component):
         # read-address registers (one register fed all 16: 7.7 ns of routing
         # in a two-pipeline build, docs/bitstream.md); the write is handed over
         # in the accepting clock, its registers are the line's.
+        # Where the pool's banks are placed, its floorplan keeps a block of
+        # sites in the middle of each row for the line's block RAMs, so that
+        # they lie together (in free sites up to 61 rows from their group
+        # registers, the latest paths of two-pipeline builds, 6.4-6.8 ns of
+        # one route: docs/bitstream.md).
+        ptag = fetch_tag_layout(M)
+        pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
+        mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
+        rows = block_ram_rows(platform)
+        per_row = -(-mode[1] // len(rows)) if mode and rows else 0
+        pool = None if sdram else StreamPool(c.pool_words, pool_tag.size, init=self._pool_init,
+                                             reserve_sites=per_row)
+        reserved = pool and pool.reserved_sites(platform)
         m.submodules.common = common = DelayLine(
             2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
-            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG))
+            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG),
+            sites=[bel for row in reserved for bel in row][:mode[1]] if reserved else None)
         assert common.depth == c.common_depth and common.latency == 3 and ACCEPT_LAG == 1
         cnt = Signal(range(c.common_depth))
         n_q = Signal.like(cnt)
@@ -268,8 +282,6 @@ class WindFarmReplay(wiring.Component):
         m.d.comb += [common.r_index.eq(n_q), common.r_delay.eq(regs.common_delay)]
 
         # ---- the pool and the fetch scan -----------------------------------------
-        ptag = fetch_tag_layout(M)
-        pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
         if sdram:
             m.submodules.pool = pool = SDRAMStreamPool(SDRAM_ADDRESS_WIDTH, pool_tag.size,
                                                        queue_depth=SDRAM_QUEUE_DEPTH, sdram_domain="sdram")
@@ -290,7 +302,7 @@ class WindFarmReplay(wiring.Component):
                          check.rd_ready.eq(pool.rd_ready), check.rd_data_valid.eq(pool.rd_data_valid),
                          check.rd_data.eq(pool.rd_data)]
         else:
-            m.submodules.pool = pool = StreamPool(c.pool_words, pool_tag.size, init=self._pool_init)
+            m.submodules.pool = pool
             m.d.comb += [pool.w_en.eq(regs.wr_en), pool.w_addr.eq(regs.wr_addr), pool.w_data.eq(regs.wr_data)]
         # One pipeline's slots are offered a fetch per period, pipelines in turn
         # (from the pipelines' period start).

@@ -33,6 +33,9 @@ class StreamPool(wiring.Component):
     tag_width : int
     init : sequence of int
         Power-up contents from address 0.
+    reserve_sites : int
+        Block-RAM sites per row kept together for another RAM where the
+        banks are placed (:meth:`reserved_sites`).
 
     Members
     -------
@@ -44,7 +47,7 @@ class StreamPool(wiring.Component):
     #: Block-RAM slices (bits) per kept copy of a bank's read and write access.
     GROUP_BITS = 8
 
-    def __init__(self, words, tag_width, init=()):
+    def __init__(self, words, tag_width, init=(), *, reserve_sites=0):
         if not (isinstance(words, int) and not isinstance(words, bool) and 16 <= words
                 and (words % POOL_BANK_WORDS == 0 if words > POOL_BANK_WORDS else not words & (words - 1))):
             raise ValueError(f"Pool words must be a power of two from 16 to {POOL_BANK_WORDS} or a "
@@ -54,7 +57,9 @@ class StreamPool(wiring.Component):
         init = [int(w) & ((1 << 2 * STREAM_WIDTH) - 1) for w in init]
         if len(init) > words:
             raise ValueError(f"Initial pool contents must have at most {words} words, not {len(init)}")
-        self._words, self._init = words, init
+        if not isinstance(reserve_sites, int) or isinstance(reserve_sites, bool) or reserve_sites < 0:
+            raise ValueError(f"Reserved sites must be a non-negative integer, not {reserve_sites!r}")
+        self._words, self._init, self._reserve = words, init, reserve_sites
         self._bank_words = min(words, POOL_BANK_WORDS)
         self._banks = words // self._bank_words
         aw = (words - 1).bit_length()
@@ -112,7 +117,9 @@ class StreamPool(wiring.Component):
         for the other RAMs spread evenly before, between and after them (a
         delay line then finds a block RAM near its logic anywhere along a
         row). A group's copies reach 8 sites in a row, and the OR of a byte
-        over the banks stays in one row."""
+        over the banks stays in one row. ``reserve_sites`` sites of every
+        row are kept together at the start of the middle gap for another
+        RAM (the common delay line's: :meth:`reserved_sites`)."""
         BW = self._bank_words
         bank_bits = (BW - 1).bit_length()
         W = 2 * STREAM_WIDTH
@@ -122,6 +129,7 @@ class StreamPool(wiring.Component):
         # register); then the group's data register and the OR
         at = self.latency - 2
         floorplan = self._floorplan(platform)
+        floorplan = floorplan and floorplan[0]
         # the read's bank along the pipeline: hit[k][b], "the read k clocks ago was of bank b"
         hit = [[valid[0] & (r_bank == b) for b in range(self._banks)]]
         for k in range(1, at + 1):
@@ -162,20 +170,34 @@ class StreamPool(wiring.Component):
         W = 2 * STREAM_WIDTH
         return [(g, min(self.GROUP_BITS, W - g)) for g in range(0, W, self.GROUP_BITS)]
 
+    def reserved_sites(self, platform):
+        """The ``reserve_sites`` sites of each block-RAM row kept for another
+        RAM (rows top to bottom, each left to right), or ``None`` where the
+        banks are not placed (:meth:`_floorplan`)."""
+        plan = self._floorplan(platform)
+        return plan and plan[1]
+
     def _floorplan(self, platform):
-        """``sites[group][bank]``: the bels of each group's slices (see
-        :meth:`_elaborate_banks`), or ``None`` where the device's rows are
-        unknown or too few or too short for this pool."""
+        """``(sites[group][bank], reserved[row])``: the bels of each group's
+        slices (see :meth:`_elaborate_banks`) and of each row's reserved
+        block, or ``None`` where the device's rows are unknown or too few or
+        too short for this pool (a single bank is never placed)."""
         rows = block_ram_rows(platform)
-        per_group = [dp16kd_mode(gw, self._bank_words)[1] for _, gw in self._groups()]
-        B = self._banks
-        if rows is None or len(rows) < len(per_group) or any(B * n > len(r) for n, r in zip(per_group, rows)):
+        if self._banks == 1 or rows is None:
             return None
-        plan = []
+        per_group = [dp16kd_mode(gw, self._bank_words)[1] for _, gw in self._groups()]
+        B, R = self._banks, self._reserve
+        if len(rows) < len(per_group) or any(B * n + R > len(r) for n, r in zip(per_group, rows)):
+            return None
+        plan, reserved = [], []
+        mid = (B + 1) // 2
         for row, n in zip(rows, per_group):
             # the sites left free, spread over the B + 1 gaps before, between
-            # and after the groups
-            free = len(row) - B * n
-            first = [free * (b + 1) // (B + 1) + b * n for b in range(B)]
+            # and after the groups; the reserved block at the start of the
+            # middle gap (after bank mid - 1)
+            free = len(row) - B * n - R
+            first = [free * (b + 1) // (B + 1) + b * n + (R if b >= mid else 0) for b in range(B)]
             plan.append([row[f:f + n] for f in first])
-        return plan
+            r0 = free * mid // (B + 1) + mid * n
+            reserved.append(row[r0:r0 + R])
+        return plan, reserved

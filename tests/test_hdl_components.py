@@ -50,6 +50,12 @@ def test_delay_line_parameters():
         DelayLine(8, 4, lag=0)
     with pytest.raises(ValueError, match="Group bits"):
         DelayLine(8, 4, group_bits=9)
+    with pytest.raises(ValueError, match=r"^Sites must be None or, with groups of block RAMs, 4 bel names, "):
+        DelayLine(8, 8190, group_bits=2, sites=["X4/Y22/EBR0"])
+    with pytest.raises(ValueError, match=r"^Sites must be None or, with groups of block RAMs, no bel names, "):
+        DelayLine(8, 4, sites=["X4/Y22/EBR0"])
+    with pytest.raises(ValueError, match=r"^Reserved sites must be a non-negative integer, not -1$"):
+        StreamPool(16, 4, reserve_sites=-1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
         assert [DelayLine(8, d).depth for d in (0, 14, 15)] == [2, 16, 32]
@@ -174,6 +180,28 @@ def test_stream_pool_floorplan_on_the_85f(banks):
         ends = [0] + [s + G for s in starts]
         gaps = [s - e for s, e in zip(starts + [52], ends)]
         assert min(gaps) >= 0 and sum(gaps) == free and max(gaps) - min(gaps) <= 1
+
+
+def test_the_common_line_lies_in_a_block_the_pool_keeps_free():
+    """With the pool's banks placed, its floorplan keeps a block of sites in
+    the middle of each row for the common delay line: its 16 block RAMs in 4
+    neighbouring sites of every row, none shared with the pool, whose groups
+    still lie in neighbouring sites in bank order."""
+    from amaranth.back import rtlil
+    from rast.hdl.ecp5_primitives import block_ram_rows
+    from rast.hdl.replay_top import WindFarmReplay
+    rows = block_ram_rows(_85F())
+    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(10, slots=10, pool_words=5 * POOL_BANK_WORDS,
+                                                     max_delay=8190, max_tap=2046), platform=_85F()))
+    common = [bel for path, bel in bels.items() if ".common." in path or path.startswith("common")]
+    pool = {bel for path, bel in bels.items() if "bank" in path}
+    assert len(common) == 16 and len(pool) == 160 and not set(common) & pool
+    for row in rows:
+        index = sorted(row.index(bel) for bel in common if bel in row)
+        assert len(index) == 4 and index == list(range(index[0], index[0] + 4))
+        assert 52 // 4 <= index[0] <= 3 * 52 // 4                      # in the row's middle half
+        banks = sorted(row.index(bel) for bel in pool if bel in row)
+        assert len(banks) == 40
 
 
 def test_stream_pool_no_floorplan_where_rows_lack_room():
