@@ -250,15 +250,13 @@ class WindFarmReplay(wiring.Component):
         # The pipelines' period starts ACCEPT_LAG clocks after the accepting one:
         # then x[n] reaches the RAM and the read for step n is asked, so that
         # c[n] is out three clocks after the period start. The line's block
-        # RAMs lie wherever the pool left room, so each has its own write and
+        # RAMs are spread over the rows, so each has its own write and
         # read-address registers (one register fed all 16: 7.7 ns of routing
         # in a two-pipeline build, docs/bitstream.md); the write is handed over
-        # in the accepting clock, its registers are the line's.
-        # Where the pool's banks are placed, its floorplan keeps a block of
-        # sites in the middle of each row for the line's block RAMs, so that
-        # they lie together (in free sites up to 61 rows from their group
-        # registers, the latest paths of two-pipeline builds, 6.4-6.8 ns of
-        # one route: docs/bitstream.md).
+        # in the accepting clock, its registers are the line's. Where the
+        # pool's banks are placed, its floorplan keeps a block of sites in the
+        # middle of each row for them (in the free sites the placer chose, one
+        # sat up to 61 rows from its registers: 6.4-6.8 ns of one route).
         ptag = fetch_tag_layout(M)
         pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
         mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
