@@ -212,8 +212,9 @@ class SampleIO(wiring.Component):
             before = Signal.like(self.slot, init=M - 1, name="pin_slot_before")
             m.d[d] += before.eq(self.slot)
 
-        def in_slot(slots):
-            return Cat(*[before == (k - 1) % M for k in slots]).any() if M > 1 else Const(0 in slots)
+        def in_slot(slots, ahead=0):
+            """This clock's slot (``ahead`` clocks later's) is in ``slots``."""
+            return Cat(*[before == (k - 1 - ahead) % M for k in slots]).any() if M > 1 else Const(0 in slots)
 
         # The pattern's two half clocks of this slot, registered: high while
         # the half clock's index within the period is below M.
@@ -221,13 +222,10 @@ class SampleIO(wiring.Component):
         # A pair of registers per pin, kept apart (one pair for the three
         # pins was a two-pipeline build's worst path, 6.5 ns of one route).
         for name, cell in (("adc_clk", adc_clk), ("dac_clk", dac_clk), ("dac_iq", dac_iq)):
-            if d == "sync":
-                hi0 = kept_register(m, platform, in_slot(first_i), f"{name}_hi0", reset=True)
-                hi1 = kept_register(m, platform, in_slot(second_i), f"{name}_hi1", reset=True)
-            else:
-                hi0, hi1 = Signal(name=f"{name}_hi0"), Signal(name=f"{name}_hi1")
-                m.d[d] += [hi0.eq(in_slot(first_i)), hi1.eq(in_slot(second_i))]
-            m.d.comb += [cell.o[0].eq(hi0), cell.o[1].eq(hi1)]
+            m.d.comb += [cell.o[0].eq(kept_register(m, platform, in_slot(first_i), f"{name}_hi0",
+                                                    reset=True, domain=d)),
+                         cell.o[1].eq(kept_register(m, platform, in_slot(second_i), f"{name}_hi1",
+                                                    reset=True, domain=d))]
 
         # ADC: the pin clock's rising edge is PIN_LAG clocks after the slot-0
         # clock that made it; the IDDRX1F shows a pin sample the clock after.
@@ -251,15 +249,13 @@ class SampleIO(wiring.Component):
         with m.If(self.dac.ready):
             m.d[d] += y.eq(Mux(self.dac.valid, self.dac.payload, 0))
         # which half each edge drives, decided a clock ahead into registers
-        # beside the data's (this clock's slot is two after the one
-        # ``before`` held in the clock before): decoded from ``before`` in
-        # the data's clock, its route to the 32 data registers was the
-        # two-pipeline build's worst path (6.6 ns, 4.6 of it one route)
+        # beside the data's: decoded from ``before`` in the data's clock, its
+        # route to the 32 data registers was the two-pipeline build's worst
+        # path (6.6 ns, 4.6 of it one route)
         if M > 1:
             sel0 = Signal(init=0 in first_i, name="dac_sel0")
             sel1 = Signal(init=0 in second_i, name="dac_sel1")
-            m.d[d] += [sel0.eq(Cat(*[before == (k - 2) % M for k in first_i]).any()),
-                       sel1.eq(Cat(*[before == (k - 2) % M for k in second_i]).any())]
+            m.d[d] += [sel0.eq(in_slot(first_i, ahead=1)), sel1.eq(in_slot(second_i, ahead=1))]
         else:
             sel0, sel1 = in_slot(first_i), in_slot(second_i)
         d0, d1 = Signal(signed(OUTPUT_WIDTH)), Signal(signed(OUTPUT_WIDTH))

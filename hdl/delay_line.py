@@ -46,9 +46,9 @@ class DelayLine(wiring.Component):
     group_bits : int or None
         Bits per group of block RAMs with registers of its own (above).
     sites : sequence of str or None
-        With groups on ECP5: a block-RAM site (nextpnr bel) for each of the
-        line's block RAMs, group by group, so that they lie together rather
-        than wherever the placer finds room.
+        With groups on ECP5: a block-RAM site (nextpnr bel) for each group,
+        each then one block RAM (as ``slice_bits`` makes them), so that they
+        lie together rather than wherever the placer finds room.
 
     Members
     -------
@@ -73,19 +73,12 @@ class DelayLine(wiring.Component):
                                        or not 0 < group_bits <= width):
             raise ValueError(f"Group bits must be None or an integer in [1, {width}], not {group_bits!r}")
         self._group_bits = group_bits
-        self._sites = None
-        if sites is not None:
-            per_group = [] if group_bits is None else [
-                (dp16kd_mode(min(group_bits, width - g), delay_depth(max_delay + lag - 1)) or (0, 0))[1]
-                for g in range(0, width, group_bits)]
-            sites = tuple(sites)
-            if not per_group or 0 in per_group or len(sites) != sum(per_group) \
-                    or not all(isinstance(x, str) for x in sites):
-                raise ValueError(f"Sites must be None or, with groups of block RAMs, "
-                                 f"{sum(per_group) if per_group and 0 not in per_group else 'no'} bel names, "
-                                 f"not {sites!r}")
-            starts = [sum(per_group[:k]) for k in range(len(per_group))]
-            self._sites = [sites[a:a + n] for a, n in zip(starts, per_group)]
+        groups = 0 if group_bits is None else -(-width // group_bits)
+        if sites is not None and (len(sites := tuple(sites)) != groups or groups == 0
+                                  or not all(isinstance(x, str) for x in sites)):
+            raise ValueError(f"Sites must be None or, with groups of block RAMs, {groups or 'no'} bel "
+                             f"names, not {sites!r}")
+        self._sites = sites
         self._width = width
         self._max_delay = max_delay
         self._lag = lag
@@ -141,7 +134,7 @@ class DelayLine(wiring.Component):
             name = f"mem_bits{g}"
             # the read address's register is the group's copy (latency 1 + 2)
             m.submodules[name] = mem = RegisteredRAM(gw, self._depth, continuous=True, output_reset=False,
-                                                     sites=self._sites and self._sites[g // self._group_bits])
+                                                     sites=self._sites and (self._sites[g // self._group_bits],))
             assert 1 + mem.latency == self.latency
             m.d.comb += [mem.w_en.eq(kept_register(m, platform, self.w_en, f"{name}_w_en", reset=True)),
                          mem.w_addr.eq(kept_register(m, platform, self.w_index, f"{name}_w_index")),

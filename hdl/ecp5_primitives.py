@@ -63,9 +63,9 @@ def is_ecp5(platform) -> bool:
     return platform is not None and getattr(platform, "family", None) == "ecp5"
 
 
-def kept_register(m, platform, value, name, *, reset=False):
-    """``value`` one clock later, in a register of its own (with ``reset``,
-    cleared by the domain's synchronous reset; else not reset).
+def kept_register(m, platform, value, name, *, reset=False, domain="sync"):
+    """``value`` one clock of ``domain`` later, in a register of its own (with
+    ``reset``, cleared by the domain's synchronous reset; else not reset).
 
     Copies of one register that differ in nothing are one register to Yosys
     (its ``opt_merge`` merges flip-flops with the same inputs; a ``keep``
@@ -78,13 +78,13 @@ def kept_register(m, platform, value, name, *, reset=False):
     value = Value.cast(value)
     q = Signal(len(value), name=name, reset_less=not reset)
     if not is_ecp5(platform):
-        m.d.sync += q.eq(value)
+        m.d[domain] += q.eq(value)
         return q
     for k in range(len(value)):
         m.submodules[f"{name}_ff{k}"] = Instance(
             "TRELLIS_FF", p_GSR="DISABLED", p_CEMUX="1", p_CLKMUX="CLK", p_LSRMUX="LSR",
             p_REGSET="RESET", p_SRMODE="LSR_OVER_CE",         # LSR: a synchronous reset to 0
-            i_CLK=ClockSignal("sync"), i_LSR=ResetSignal("sync") if reset else Const(0),
+            i_CLK=ClockSignal(domain), i_LSR=ResetSignal(domain) if reset else Const(0),
             i_DI=value[k], o_Q=q[k])
     return q
 

@@ -6,7 +6,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from ..model.regmap import RegisterMap, CRC32_POLY, STORED, CHANNEL_BASE, CHANNEL_STRIDE
-from ..model.fixedpoint import STREAM_WIDTH
+from ..model.fixedpoint import STREAM_WIDTH, write_staging
 from .ecp5_primitives import kept_register
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
@@ -57,8 +57,9 @@ def match_stages(slots: int) -> int:
     two from M = 3 (the comparisons, then their AND: about 60 bits compared
     in one clock was a 200 MHz build's worst path, 7.2 ns, docs/bitstream.md),
     three from M = 8 (the RAMs' words registered first: their read and the
-    comparison, 9.8 ns at 64 channels; ``write_staging`` gives the clock)."""
-    return min(2, slots - 1) if slots < 8 else 3
+    comparison, 9.8 ns at 64 channels). Each level is a clock of the write's
+    staging (``write_staging``), one clock of which reads the check's RAMs."""
+    return write_staging(slots) - 1
 
 
 def crc_clocks(slots: int) -> int:
