@@ -19,7 +19,11 @@ from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE
                                 MAC_RESULT_CYCLES, fir_coefficients, mac_merge_cycles, visit_cycles)
 from ..model.powerup import ChannelInit
 
-__all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout"]
+__all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "COMMON_OUT_CYCLES"]
+
+#: Clocks from the period start to the common line's c[n] on ``win_data``
+#: (the top asks the line's read for step n in the accepting clock).
+COMMON_OUT_CYCLES = 3
 
 POS_BITS = (CACHE_WORDS - 1).bit_length()
 
@@ -674,8 +678,8 @@ class ChannelPipeline(wiring.Component):
         # and its sample registered in fabric, so that it is out with the word:
         # the RAM's output register went straight into the multipliers' input
         # registers, the latest path of a two-pipeline build (7.9 ns, 6.9 of
-        # it routing, docs/bitstream.md). c[n] comes from the common line 3
-        # clocks after the period start and reaches the RAM just after the
+        # it routing, docs/bitstream.md). c[n] comes from the common line
+        # COMMON_OUT_CYCLES after the period start and reaches the RAM just after the
         # last read of the step before (a write for step n + 1 never meets a
         # read for step n at the RAM: tests/formal/replay_formal.py's rule).
         # Each of the window's block RAMs has its write and read-address
@@ -688,7 +692,7 @@ class ChannelPipeline(wiring.Component):
         read_at = WORD_CYCLES - win.latency - 1
         write_at = V + read_at + 1                    # clocks after the period start, at the RAM
         wen = _delay(m, start & self.accept, write_at - 1, "win_wen")
-        wdata = _delay(m, self.win_data, write_at - 1 - DelayLine.latency, "win_wdata", data=True)
+        wdata = _delay(m, self.win_data, write_at - 1 - COMMON_OUT_CYCLES, "win_wdata", data=True)
         windex = _delay(m, nidx_h, write_at - 2, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
                      win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex", data=True)),

@@ -34,6 +34,13 @@ class DelayLine(wiring.Component):
     (the caller gives ``w_*`` a clock earlier than without groups); the
     read's latency is the same.
 
+    With ``address_copies`` (groups only) the read address passes one more
+    register level, ``address_copies`` kept registers each feeding its share
+    of the groups' registers (with ``sites`` given row by row, one copy per
+    row): the read is then presented a clock earlier, so ``latency`` is 4.
+    One register reaching 16 block RAMs over the device's four rows was a
+    latest path of the two-pipeline build (docs/bitstream.md).
+
     Parameters
     ----------
     width : int
@@ -49,6 +56,9 @@ class DelayLine(wiring.Component):
         With groups on ECP5: a block-RAM site (nextpnr bel) for each group,
         each then one block RAM (as ``slice_bits`` makes them), so that they
         lie together rather than wherever the placer finds room.
+    address_copies : int or None
+        With groups: copies of the read address in a register level before
+        the groups' (above); the read is presented a clock earlier.
 
     Members
     -------
@@ -60,9 +70,7 @@ class DelayLine(wiring.Component):
     o : Out(width)
     """
 
-    latency = 3
-
-    def __init__(self, width, max_delay, lag=1, *, group_bits=None, sites=None):
+    def __init__(self, width, max_delay, lag=1, *, group_bits=None, sites=None, address_copies=None):
         if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
             raise TypeError(f"Delay line width must be a positive integer, not {width!r}")
         if not isinstance(max_delay, int) or isinstance(max_delay, bool) or max_delay < 0:
@@ -79,6 +87,13 @@ class DelayLine(wiring.Component):
             raise ValueError(f"Sites must be None or, with groups of block RAMs, {groups or 'no'} bel "
                              f"names, not {sites!r}")
         self._sites = sites
+        if address_copies is not None and (not isinstance(address_copies, int) or isinstance(address_copies, bool)
+                                           or groups == 0 or not 0 < address_copies <= groups):
+            raise ValueError(f"Address copies must be None or, with groups of block RAMs, an integer in "
+                             f"[1, {groups}], not {address_copies!r}" if groups else
+                             f"Address copies must be None without groups of block RAMs, not "
+                             f"{address_copies!r}")
+        self._address_copies = address_copies
         self._width = width
         self._max_delay = max_delay
         self._lag = lag
@@ -99,6 +114,11 @@ class DelayLine(wiring.Component):
         RAM registers of its own."""
         mode = dp16kd_mode(width, delay_depth(max_delay + lag - 1))
         return min(mode[0], width) if mode else width
+
+    @property
+    def latency(self):
+        """Clocks from a read's ``r_index``/``r_delay`` to its word on ``o``."""
+        return 3 if self._address_copies is None else 4
 
     @property
     def width(self):
@@ -128,18 +148,24 @@ class DelayLine(wiring.Component):
     def _elaborate_groups(self, m, platform):
         r_addr = Signal(range(self._depth))
         m.d.comb += r_addr.eq(self.r_index - self._lag - self.r_delay)
+        groups = -(-self._width // self._group_bits)
+        # the level of read-address copies, if any: group k reads copy k * copies // groups
+        copies = [r_addr] if self._address_copies is None else \
+            [kept_register(m, platform, r_addr, f"r_addr_copy{k}") for k in range(self._address_copies)]
         words = []
-        for g in range(0, self._width, self._group_bits):
+        for k, g in enumerate(range(0, self._width, self._group_bits)):
             gw = min(self._group_bits, self._width - g)
             name = f"mem_bits{g}"
-            # the read address's register is the group's copy (latency 1 + 2)
+            # the read address's register is the group's copy (latency 1 + 2),
+            # after the level of copies if any (1 + 1 + 2)
             m.submodules[name] = mem = RegisteredRAM(gw, self._depth, continuous=True, output_reset=False,
-                                                     sites=self._sites and (self._sites[g // self._group_bits],))
-            assert 1 + mem.latency == self.latency
+                                                     sites=self._sites and (self._sites[k],))
+            assert 1 + (self._address_copies is not None) + mem.latency == self.latency
             m.d.comb += [mem.w_en.eq(kept_register(m, platform, self.w_en, f"{name}_w_en", reset=True)),
                          mem.w_addr.eq(kept_register(m, platform, self.w_index, f"{name}_w_index")),
                          mem.w_data.eq(kept_register(m, platform, self.w_data[g:g + gw], f"{name}_w_data")),
-                         mem.r_addr.eq(kept_register(m, platform, r_addr, f"{name}_r_addr"))]
+                         mem.r_addr.eq(kept_register(m, platform, copies[k * len(copies) // groups],
+                                                     f"{name}_r_addr"))]
             words.append(mem.r_data)
         m.d.comb += self.o.eq(Cat(*words))
         return m

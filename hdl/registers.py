@@ -175,8 +175,9 @@ class RegisterFile(wiring.Component):
         reads its registers).
     cmd_ack : In(1).array(N)
         The engine read channel l's registers: its command is consumed.
-    common_delay : Out
-        The applied common delay (copied from COMMON_DELAY by APPLY).
+    common_delay_next : Out
+        The common delay applied from the next clock on (COMMON_DELAY as
+        APPLY copies it): the common line's read is asked a clock ahead.
     pending, bank : In(1).array(N)
         The channels' state, from the engine.
     wr_en : Out(1), wr_addr : Out(pool address), wr_data : Out(32)
@@ -223,7 +224,7 @@ class RegisterFile(wiring.Component):
             "regs": Out(channel_regs_layout(rmap)).array(N),
             "values": Out(slot_values_layout(rmap)).array(len(groups)),
             "cmd_ack": In(1).array(N),
-            "common_delay": Out(self._cw),
+            "common_delay_next": Out(self._cw),
             "pending": In(1).array(N),
             "bank": In(1).array(N),
             "wr_en": Out(1),
@@ -583,9 +584,9 @@ class RegisterFile(wiring.Component):
 
         common = rmap.reg("COMMON_DELAY")
         applied = Signal(self._cw, init=common.fields[0].reset, name="common_delay_applied")
-        with m.If(land_apply[None]):
-            m.d.sync += applied.eq(storage[("COMMON_DELAY", None, "delay")])
-        m.d.comb += self.common_delay.eq(applied)
+        m.d.comb += self.common_delay_next.eq(Mux(land_apply[None], storage[("COMMON_DELAY", None, "delay")],
+                                                  applied))
+        m.d.sync += applied.eq(self.common_delay_next)
 
         # Pool write path, registered.
         m.d.sync += self.wr_en.eq(data_w)

@@ -6,7 +6,7 @@ from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
-from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout
+from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout, COMMON_OUT_CYCLES
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
 from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode
@@ -247,16 +247,18 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += regs.take.eq(take)
 
         # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
-        # The pipelines' period starts ACCEPT_LAG clocks after the accepting one:
-        # then x[n] reaches the RAM and the read for step n is asked, so that
-        # c[n] is out three clocks after the period start. The line's block
-        # RAMs are spread over the rows, so each has its own write and
-        # read-address registers (one register fed all 16: 7.7 ns of routing
-        # in a two-pipeline build, docs/bitstream.md); the write is handed over
-        # in the accepting clock, its registers are the line's. Where the
-        # pool's banks are placed, its floorplan keeps a block of sites in the
-        # middle of each row for them (in the free sites the placer chose, one
-        # sat up to 61 rows from its registers: 6.4-6.8 ns of one route).
+        # x[n] is handed to the line in the accepting clock and reaches the RAM
+        # in the pipelines' period start; the read for step n is asked in the
+        # accepting clock too (the step count before its increment, the common
+        # delay that applies from the period start), so that c[n] is out
+        # COMMON_OUT_CYCLES after the period start. The line's block RAMs are spread over
+        # the rows, so each has its own write and read-address registers (one
+        # register fed all 16: 7.7 ns of routing in a two-pipeline build,
+        # docs/bitstream.md), and the read address passes a copy per row
+        # before them. Where the pool's banks are placed, its floorplan keeps a
+        # block of sites in the middle of each row for them (in the free sites
+        # the placer chose, one sat up to 61 rows from its registers: 6.4-6.8
+        # ns of one route).
         ptag = fetch_tag_layout(M)
         pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
         mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
@@ -268,16 +270,15 @@ class WindFarmReplay(wiring.Component):
         m.submodules.common = common = DelayLine(
             2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
             group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG),
-            sites=[bel for row in reserved for bel in row][:mode[1]] if reserved else None)
-        assert common.depth == c.common_depth and common.latency == 3 and ACCEPT_LAG == 1
+            sites=[bel for row in reserved for bel in row][:mode[1]] if reserved else None,
+            address_copies=len(rows) if rows else 1)
+        assert common.depth == c.common_depth and common.latency == ACCEPT_LAG + COMMON_OUT_CYCLES
         cnt = Signal(range(c.common_depth))
-        n_q = Signal.like(cnt)
-        m.d.sync += n_q.eq(cnt)
         with m.If(accept):
             m.d.sync += cnt.eq(cnt + 1)
         m.d.comb += [common.w_en.eq(accept), common.w_index.eq(cnt),
-                     common.w_data.eq(self.i.payload.as_value())]
-        m.d.comb += [common.r_index.eq(n_q), common.r_delay.eq(regs.common_delay)]
+                     common.w_data.eq(self.i.payload.as_value()),
+                     common.r_index.eq(cnt), common.r_delay.eq(regs.common_delay_next)]
 
         # ---- the pool and the fetch scan -----------------------------------------
         if sdram:

@@ -54,6 +54,10 @@ def test_delay_line_parameters():
         DelayLine(8, 8190, group_bits=2, sites=["X4/Y22/EBR0"])
     with pytest.raises(ValueError, match=r"^Sites must be None or, with groups of block RAMs, no bel names, "):
         DelayLine(8, 4, sites=["X4/Y22/EBR0"])
+    with pytest.raises(ValueError, match="Address copies must be None without groups"):
+        DelayLine(8, 4, address_copies=1)
+    with pytest.raises(ValueError, match=r"Address copies .* an integer in \[1, 4\], not 5"):
+        DelayLine(8, 4, group_bits=2, address_copies=5)
     with pytest.raises(ValueError, match=r"^Reserved sites must be a non-negative integer, not -1$"):
         StreamPool(16, 4, reserve_sites=-1)
     with warnings.catch_warnings():
@@ -278,15 +282,18 @@ def test_cmult_random_and_extremes(form):
 
 # ---------------------------------------------------------------- delay line
 
-@pytest.mark.parametrize("lag, group_bits", [(1, None), (2, None), (1, 5), (2, 16)])
-def test_delay_line_every_delay_with_gaps(lag, group_bits):
+@pytest.mark.parametrize("lag, group_bits, copies", [(1, None, None), (2, None, None), (1, 5, None),
+                                                     (2, 16, None), (1, 2, 4), (2, 5, 1)])
+def test_delay_line_every_delay_with_gaps(lag, group_bits, copies):
     """One word per step (written at its step index), read for each step at a
     delay that changes: out = x[n - lag - d], checked directly and against the
     model's ``delay_line``. With groups of block RAMs (registers of their
     own) the write is presented a clock before the read for its step, as the
-    engine's common line does."""
+    engine's common line did; with a level of read-address copies too, in the
+    same clock as the read (``latency`` 4), as it does now."""
     maxd = 13
-    dut = DelayLine(16, maxd, lag, group_bits=group_bits)
+    dut = DelayLine(16, maxd, lag, group_bits=group_bits, address_copies=copies)
+    assert dut.latency == (3 if copies is None else 4)
     D = dut.depth
     rng = np.random.default_rng(5)
     per = 40
@@ -309,7 +316,7 @@ def test_delay_line_every_delay_with_gaps(lag, group_bits):
                 n += 1
             else:                      # don't-care values where nothing is written or read
                 ctx.set(dut.w_index, int(rng.integers(D))); ctx.set(dut.w_data, int(rng.integers(1 << 16)))
-            if group_bits is not None:
+            if group_bits is not None and copies is None:
                 read, held = held, read
             if read is not None:       # the read for a step in the clock its write reaches the RAM
                 ctx.set(dut.r_index, read % D); ctx.set(dut.r_delay, int(delays[read]))

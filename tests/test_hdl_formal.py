@@ -17,7 +17,8 @@ from replay_formal import run_check   # noqa: E402
     "stream_address_fir",
     "delay_exact",             # BMC: a read for step n at delay d returns the word of step n - lag - d
     pytest.param("delay_exact_deep", marks=pytest.mark.slow),
-    "delay_exact_groups",      # the same, the common line's groups of block RAMs (write a clock ahead)
+    "delay_exact_groups",      # the same, groups of block RAMs (the write a clock ahead)
+    "delay_exact_copies",      # the common line's form: the read a clock ahead too, through address copies
 ])
 def test_formal(name, tmp_path):
     ok, log = run_check(name, tmp_path)

@@ -75,19 +75,22 @@ class StreamAddressCheck(Elaboratable):
 
 
 class DelayExactCheck(Elaboratable):
-    def __init__(self, max_delay=6, width=3, lag=1, group_bits=None):
+    def __init__(self, max_delay=6, width=3, lag=1, group_bits=None, address_copies=None):
         self.max_delay, self.width, self.lag, self.group_bits = max_delay, width, lag, group_bits
+        self.address_copies = address_copies
 
     def elaborate(self, platform):
         m = Module()
         maxd, W, lag = self.max_delay, self.width, self.lag
-        m.submodules.dut = dut = DelayLine(W, maxd, lag, group_bits=self.group_bits)
+        m.submodules.dut = dut = DelayLine(W, maxd, lag, group_bits=self.group_bits,
+                                           address_copies=self.address_copies)
         wr, rd, late, x, d = AnySeq(1), AnySeq(1), AnySeq(1), AnySeq(W), AnySeq(range(maxd + 1))
         count = Signal(range(dut.depth))          # the step the next write is for
-        m.d.comb += [Assume(d <= maxd), Assume(~ResetSignal()),
-                     # a read for the step being written (``late`` 0: the common line) or
-                     # for the one before (1: a window, read after its step's write)
-                     dut.r_index.eq(count - late), dut.r_delay.eq(d)]
+        m.d.comb += [Assume(d <= maxd), Assume(~ResetSignal())]
+        # a read for the step being written (``late`` 0: the common line) or
+        # for the one before (1: a window, read after its step's write)
+        if self.address_copies is None:
+            m.d.comb += [dut.r_index.eq(count - late), dut.r_delay.eq(d)]
         if self.group_bits is None:
             m.d.comb += [dut.w_en.eq(wr), dut.w_index.eq(count), dut.w_data.eq(x)]
             with m.If(wr):
@@ -102,6 +105,14 @@ class DelayExactCheck(Elaboratable):
             m.d.sync += [wr.eq(wr_early), x.eq(x_early), count.eq(count_early)]
             with m.If(wr_early):
                 m.d.sync += count_early.eq(count_early + 1)
+            if self.address_copies is not None:
+                # and the read a clock ahead too: rd, late and d below are the
+                # read as it was presented a clock before, as count was then
+                rd_early, late_early, d_early = AnySeq(1), AnySeq(1), AnySeq(range(maxd + 1))
+                rd, late, d = Signal(), Signal(), Signal(range(maxd + 1))
+                m.d.sync += [rd.eq(rd_early), late.eq(late_early), d.eq(d_early)]
+                m.d.comb += [Assume(d_early <= maxd), dut.r_index.eq(count_early - late_early),
+                             dut.r_delay.eq(d_early)]
         # How the engine uses it: step n + 1 is never written in the clock of a
         # read for step n that follows step n's write (the window reads a step
         # between its write and the next), nor in the clock after any read for
@@ -120,7 +131,7 @@ class DelayExactCheck(Elaboratable):
                 with m.Case(v):
                     m.d.comb += expect.eq(hist[v])
         pipe = [(rd, expect)]
-        for k in range(dut.latency):
+        for k in range(dut.latency - (self.address_copies is not None)):
             v, e = Signal(name=f"chk_v{k}"), Signal(W, name=f"chk_e{k}")
             m.d.sync += [v.eq(pipe[-1][0]), e.eq(pipe[-1][1])]
             pipe.append((v, e))
@@ -141,6 +152,9 @@ CHECKS = {
     "delay_exact_deep": (lambda: DelayExactCheck(max_delay=6, width=2), "bmc", 30),
     # the common line's form: groups of block RAMs, the write a clock ahead
     "delay_exact_groups": (lambda: DelayExactCheck(max_delay=2, width=2, group_bits=1), "bmc", 24),
+    # its form now: the read a clock ahead too, through a level of address copies
+    "delay_exact_copies": (lambda: DelayExactCheck(max_delay=2, width=2, group_bits=1, address_copies=2),
+                           "bmc", 24),
 }
 
 
