@@ -9,7 +9,7 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .cmult import ComplexMultiplier
-from .ecp5_primitives import RegisteredMultiplier
+from .ecp5_primitives import RegisteredMultiplier, kept_register
 from .delay_line import DelayLine
 from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
@@ -613,10 +613,18 @@ class ChannelPipeline(wiring.Component):
             # keep: else synthesis merges the register into the distributed
             # RAM's read port and moves it after the RAM, the address logic
             # and the RAM then in one clock (7.7 ns)
+            full = Cat(pos[:POS_BITS], vslot[:SB]) if M > 1 else pos[:POS_BITS]
             addr = Signal(in_bank + bank_bits, name=f"{name}_addr", attrs={"keep": 1}, reset_less=True)
-            m.d.sync += addr.eq(Cat(pos[:POS_BITS], vslot[:SB]) if M > 1 else pos[:POS_BITS])
+            m.d.sync += addr.eq(full)
             word = Signal(IQ(STREAM_WIDTH), name=name, reset_less=True)
-            m.d.comb += [port.addr.eq(addr[:in_bank]) for port in ports]
+            if len(ports) > 1:
+                # each bank's LUT RAMs from a copy of their own (kept apart, as
+                # the keep above does for one): one register reaching all four
+                # banks' (128 at M = 10) was 6.2 ns in a two-pipeline build
+                m.d.comb += [port.addr.eq(kept_register(m, platform, full[:in_bank], f"{name}_addr{b}"))
+                             for b, port in enumerate(ports)]
+            else:
+                m.d.comb += ports[0].addr.eq(addr[:in_bank])
             words = [port.data for port in ports]
             if clocks == 2:
                 words = [_delay(m, w, 1, f"{name}_bank{k}", data=True) for k, w in enumerate(words)]

@@ -693,21 +693,19 @@ class RegisterFile(wiring.Component):
             if not words:
                 continue
             results.append(self._select(m, stage, delay, words, end))
+        # Each selection is zero unless its access is a read (``_select``), so
+        # the answer is their OR: the stage's flags gating all 32 bits here
+        # were the latest path of a two-pipeline build (6.3 ns, 4.9 routing).
         m.d.sync += [bus.r_valid.eq(stage[end].valid & ~stage[end].write),
-                     bus.r_data.eq(0)]
-        with m.If(stage[end].valid & ~stage[end].write):
-            acc = Const(0, 32)
-            for r in results:
-                acc = acc | r
-            m.d.sync += bus.r_data.eq(acc)
+                     bus.r_data.eq(_or(results) if results else 0)]
         return m
 
     def _select(self, m, stage, delay, words, end):
         """The word of the register a read addresses, sampled at stage
         ``delay``: groups of registers selected into registers at that stage,
         then the group, registered, then delayed to stage ``end``. 0 when the
-        read addresses none of ``words`` ((name, fn(op): the read is of this
-        word, word) each)."""
+        access is no read or addresses none of ``words`` ((name, fn(op): the
+        access is of this word, word) each)."""
         st = stage[delay]
         group = 16
         groups = [words[k:k + group] for k in range(0, len(words), group)]
@@ -721,9 +719,10 @@ class RegisterFile(wiring.Component):
                 # build's worst path at 7.8 ns)
                 hit = Signal(name=f"rd{delay}_hit_{name}")
                 if delay >= 1:
-                    m.d.sync += hit.eq(reads(stage[delay - 1]))
+                    op = stage[delay - 1]
+                    m.d.sync += hit.eq(reads(op) & op.valid & ~op.write)
                 else:
-                    m.d.comb += hit.eq(reads(st))
+                    m.d.comb += hit.eq(reads(st) & st.valid & ~st.write)
                 sel = sel | Mux(hit, w, 0)
             m.d.sync += v.eq(sel)
             firsts.append(v)
