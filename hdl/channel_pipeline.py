@@ -69,6 +69,9 @@ COEF_ROM_SPLIT_BITS = 3
 CACHE_BANK_BITS = 2
 
 
+#: Bits of the FIR accumulator's lower half (its sum a clock before the upper's).
+ACC_LOW_BITS = 19
+
 #: Shortest delay kept in distributed RAM rather than in a chain of registers.
 RAM_DELAY_MIN = 3
 
@@ -779,20 +782,35 @@ class ChannelPipeline(wiring.Component):
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),
                      f0.dest.eq(st.dest)]
         fprod = _delay(m, f0, 6, "mac_f")                    # with the product in fabric
-        resf = _delay(m, fprod, 3, "mac_resf")              # with the result
+        fhigh = _delay(m, fprod, 1, "mac_fh")               # with the upper half's sum
+        resf = _delay(m, fhigh, 3, "mac_resf")              # with the result
         res = Signal(IQ(W), name="mac_res", reset_less=True)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
             m.submodules[f"fir_mul_{part}"] = mul
             m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(word, part)), mul.b.eq(coef)]
-            prod = _delay(m, mul.o, 1, f"fir_prod_{part}", data=True)
-            # one accumulator per slot: this slot's, updated, then round the
-            # ring (M clocks) back to its next tap
-            acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}", reset_less=True)
-            prev = acc
+            prod = Signal(signed(FIR_ACC_WIDTH), name=f"fir_prod_{part}", reset_less=True)
+            m.d.sync += prod.eq(mul.o)
+            # One accumulator per slot: this slot's, updated, then round the
+            # ring (M clocks) back to its next tap. In two halves, the upper a
+            # clock after the lower with its carry (the 38-bit sum in one clock
+            # was a latest path of a two-pipeline build, 6.1 ns); each half
+            # goes round a ring of its own.
+            acc_lo = Signal(ACC_LOW_BITS, name=f"fir_acc_lo_{part}", reset_less=True)
+            acc_hi = Signal(FIR_ACC_WIDTH - ACC_LOW_BITS, name=f"fir_acc_hi_{part}", reset_less=True)
+            prev_lo, prev_hi = acc_lo, acc_hi
             if M > 1:
-                prev, _ = _ring_delay(m, acc, M - 1, [0] * (M - 1), f"fir_accs_{part}")
-            m.d.sync += acc.eq(Mux(fprod.valid, Mux(fprod.first, prod, prev + prod), prev))
+                prev_lo, _ = _ring_delay(m, acc_lo, M - 1, [0] * (M - 1), f"fir_accs_lo_{part}")
+                prev_hi, _ = _ring_delay(m, acc_hi, M - 1, [0] * (M - 1), f"fir_accs_hi_{part}")
+            sum_lo = Signal(ACC_LOW_BITS + 1, name=f"fir_sum_lo_{part}")
+            carry = Signal(name=f"fir_carry_{part}", reset_less=True)
+            m.d.comb += sum_lo.eq(prev_lo + prod[:ACC_LOW_BITS])
+            m.d.sync += [acc_lo.eq(Mux(fprod.valid, Mux(fprod.first, prod[:ACC_LOW_BITS], sum_lo), prev_lo)),
+                         carry.eq(sum_lo[-1])]
+            prod_hi = _delay(m, prod[ACC_LOW_BITS:], 1, f"fir_prod_hi_{part}", data=True)
+            m.d.sync += acc_hi.eq(Mux(fhigh.valid, Mux(fhigh.first, prod_hi, prev_hi + prod_hi + carry), prev_hi))
+            acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}")
+            m.d.comb += acc.eq(Cat(_delay(m, acc_lo, 1, f"fir_acc_lo_{part}", data=True), acc_hi))
             rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}", reset_less=True)
             half = 1 << (FIR_COEF_FRAC - 1)
             m.d.sync += rounded.eq((acc + half) >> FIR_COEF_FRAC)
@@ -807,8 +825,8 @@ class ChannelPipeline(wiring.Component):
                          under.eq(acc < (lo << FIR_COEF_FRAC) - half)]
             m.d.sync += getattr(res, part).eq(Mux(over, hi, Mux(under, lo, rounded)))
         # addresses, ROM levels (the word beside), multiplier in and out, product,
-        # accumulator, round, saturate
-        assert 1 + 2 + 2 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
+        # the accumulator's two halves, round, saturate
+        assert 1 + 2 + 2 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
         pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
         res_d = _delay(m, res, pad, "mac_res", data=True)
         resf_d = _delay(m, resf, pad, "mac_resf")
