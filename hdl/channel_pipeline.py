@@ -66,7 +66,7 @@ def _delay(m, sig, n, name, *, data=False):
 COEF_ROM_SPLIT_BITS = 3
 
 #: The word cache in up to 2**k banks, by the slot's upper bits.
-CACHE_BANK_BITS = 2
+CACHE_BANK_BITS = 3
 
 
 #: Bits of the FIR accumulator's lower half (its sum a clock before the upper's).
