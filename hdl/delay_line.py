@@ -34,12 +34,14 @@ class DelayLine(wiring.Component):
     (the caller gives ``w_*`` a clock earlier than without groups); the
     read's latency is the same.
 
-    With ``address_copies`` (groups only) the read address passes one more
-    register level, ``address_copies`` kept registers each feeding its share
-    of the groups' registers (with ``sites`` given row by row, one copy per
-    row): the read is then presented a clock earlier, so ``latency`` is 4.
-    One register reaching 16 block RAMs over the device's four rows was a
-    latest path of the two-pipeline build (docs/bitstream.md).
+    With ``address_copies`` (groups only) the read address is registered
+    once, then copied into ``address_copies`` kept registers, each feeding
+    its share of the groups' RAMs directly (with ``sites`` given row by
+    row, one copy per row, beside the row's block of RAMs): the read is then
+    presented a clock earlier, so ``latency`` is 4, and the logic that makes
+    the address ends at one register, not at registers beside every RAM.
+    The address's subtraction feeding registers in all of the device's four
+    rows was a latest path of the two-pipeline build (docs/bitstream.md).
 
     Parameters
     ----------
@@ -57,8 +59,8 @@ class DelayLine(wiring.Component):
         each then one block RAM (as ``slice_bits`` makes them), so that they
         lie together rather than wherever the placer finds room.
     address_copies : int or None
-        With groups: copies of the read address in a register level before
-        the groups' (above); the read is presented a clock earlier.
+        With groups: copies of the registered read address, instead of a
+        register per group (above); the read is presented a clock earlier.
 
     Members
     -------
@@ -149,23 +151,24 @@ class DelayLine(wiring.Component):
         r_addr = Signal(range(self._depth))
         m.d.comb += r_addr.eq(self.r_index - self._lag - self.r_delay)
         groups = -(-self._width // self._group_bits)
-        # the level of read-address copies, if any: group k reads copy k * copies // groups
-        copies = [r_addr] if self._address_copies is None else \
-            [kept_register(m, platform, r_addr, f"r_addr_copy{k}") for k in range(self._address_copies)]
+        if self._address_copies is None:       # a register per group
+            addrs = [kept_register(m, platform, r_addr, f"mem_bits{g}_r_addr")
+                     for g in range(0, self._width, self._group_bits)]
+        else:                                  # one register, then its copies
+            r_q = kept_register(m, platform, r_addr, "r_addr")
+            copies = [kept_register(m, platform, r_q, f"r_addr_copy{k}") for k in range(self._address_copies)]
+            addrs = [copies[k * len(copies) // groups] for k in range(groups)]
         words = []
         for k, g in enumerate(range(0, self._width, self._group_bits)):
             gw = min(self._group_bits, self._width - g)
             name = f"mem_bits{g}"
-            # the read address's register is the group's copy (latency 1 + 2),
-            # after the level of copies if any (1 + 1 + 2)
             m.submodules[name] = mem = RegisteredRAM(gw, self._depth, continuous=True, output_reset=False,
                                                      sites=self._sites and (self._sites[k],))
             assert 1 + (self._address_copies is not None) + mem.latency == self.latency
             m.d.comb += [mem.w_en.eq(kept_register(m, platform, self.w_en, f"{name}_w_en", reset=True)),
                          mem.w_addr.eq(kept_register(m, platform, self.w_index, f"{name}_w_index")),
                          mem.w_data.eq(kept_register(m, platform, self.w_data[g:g + gw], f"{name}_w_data")),
-                         mem.r_addr.eq(kept_register(m, platform, copies[k * len(copies) // groups],
-                                                     f"{name}_r_addr"))]
+                         mem.r_addr.eq(addrs[k])]
             words.append(mem.r_data)
         m.d.comb += self.o.eq(Cat(*words))
         return m

@@ -251,11 +251,11 @@ class WindFarmReplay(wiring.Component):
         # in the pipelines' period start; the read for step n is asked in the
         # accepting clock too (the step count before its increment, the common
         # delay that applies from the period start), so that c[n] is out
-        # COMMON_OUT_CYCLES after the period start. The line's block RAMs are spread over
-        # the rows, so each has its own write and read-address registers (one
-        # register fed all 16: 7.7 ns of routing in a two-pipeline build,
-        # docs/bitstream.md), and the read address passes a copy per row
-        # before them. Where the pool's banks are placed, its floorplan keeps a
+        # COMMON_OUT_CYCLES after the period start. The line's block RAMs are
+        # spread over the rows: each has its own write registers (one register
+        # fed all 16: 7.7 ns of routing in a two-pipeline build,
+        # docs/bitstream.md), and the read address, registered once, is copied
+        # per row. Where the pool's banks are placed, its floorplan keeps a
         # block of sites in the middle of each row for them (in the free sites
         # the placer chose, one sat up to 61 rows from its registers: 6.4-6.8
         # ns of one route).
