@@ -160,6 +160,9 @@ class ChannelPipeline(wiring.Component):
     regs_layout, values_layout : data.StructLayout
         Of ``regs`` and ``values`` (``rast.hdl.registers.channel_regs_layout``,
         ``slot_values_layout``).
+    window_sites : sequence of str or None
+        On ECP5: the block-RAM sites of the window's block RAMs
+        (:class:`DelayLine` ``sites``), or ``None`` to leave them to the placer.
 
     Members
     -------
@@ -192,7 +195,7 @@ class ChannelPipeline(wiring.Component):
         word not yet arrived, in the clock before.
     """
 
-    def __init__(self, contract, index, slot_inits, regs_layout, values_layout):
+    def __init__(self, contract, index, slot_inits, regs_layout, values_layout, *, window_sites=None):
         if not isinstance(contract, ReplayContract):
             raise TypeError(f"Contract must be a ReplayContract, not {contract!r}")
         M = contract.slots
@@ -205,6 +208,7 @@ class ChannelPipeline(wiring.Component):
         self._c = contract
         self._index = index
         self._inits = slot_inits
+        self._window_sites = window_sites
         aw = contract.pool_address_width
         self._sum_width = contract.sum_width
         super().__init__({
@@ -698,7 +702,7 @@ class ChannelPipeline(wiring.Component):
         # the line a clock before it reaches the RAM.
         m.submodules.window = win = DelayLine(
             2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG,
-            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG))
+            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG), sites=self._window_sites)
         assert win.depth == W
         read_at = WORD_CYCLES - win.latency - 1
         write_at = V + read_at + 1                    # clocks after the period start, at the RAM

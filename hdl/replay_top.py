@@ -258,15 +258,20 @@ class WindFarmReplay(wiring.Component):
         # per row. Where the pool's banks are placed, its floorplan keeps a
         # block of sites in the middle of each row for them (in the free sites
         # the placer chose, one sat up to 61 rows from its registers: 6.4-6.8
-        # ns of one route).
+        # ns of one route), and the sites left in blocks, one for each
+        # pipeline's window (rows in turn), whose RAMs the placer had put in
+        # single free sites far apart (a window's write data, 5.6 ns of one
+        # route).
         ptag = fetch_tag_layout(M)
         pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
         mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
+        win_mode = dp16kd_mode(2 * INPUT_WIDTH, c.window_depth)
         rows = block_ram_rows(platform)
         per_row = -(-mode[1] // len(rows)) if mode and rows else 0
         pool = None if sdram else StreamPool(c.pool_words, pool_tag.size, init=self._pool_init,
-                                             reserve_sites=per_row)
+                                             reserve_sites=per_row, block_sites=win_mode[1] if win_mode else 0)
         reserved = pool and pool.reserved_sites(platform)
+        window_blocks = (pool and pool.free_blocks(platform)) or []
         m.submodules.common = common = DelayLine(
             2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
             group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG),
@@ -344,7 +349,8 @@ class WindFarmReplay(wiring.Component):
         pipes = []
         reqs = []
         for p in range(P):
-            pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout)
+            pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout,
+                                 window_sites=window_blocks[p] if p < len(window_blocks) else None)
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)
             # a registered copy of the accept strobe for each pipeline (kept:

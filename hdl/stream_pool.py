@@ -36,6 +36,10 @@ class StreamPool(wiring.Component):
     reserve_sites : int
         Block-RAM sites per row kept together for another RAM where the
         banks are placed (:meth:`reserved_sites`).
+    block_sites : int
+        Where the banks are placed, the sites left in each row in blocks of
+        this many neighbouring sites, each for one more RAM of that many
+        block RAMs (:meth:`free_blocks`); 0: spread one by one.
 
     Members
     -------
@@ -47,7 +51,7 @@ class StreamPool(wiring.Component):
     #: Block-RAM slices (bits) per kept copy of a bank's read and write access.
     GROUP_BITS = 8
 
-    def __init__(self, words, tag_width, init=(), *, reserve_sites=0):
+    def __init__(self, words, tag_width, init=(), *, reserve_sites=0, block_sites=0):
         if not (isinstance(words, int) and not isinstance(words, bool) and 16 <= words
                 and (words % POOL_BANK_WORDS == 0 if words > POOL_BANK_WORDS else not words & (words - 1))):
             raise ValueError(f"Pool words must be a power of two from 16 to {POOL_BANK_WORDS} or a "
@@ -59,7 +63,9 @@ class StreamPool(wiring.Component):
             raise ValueError(f"Initial pool contents must have at most {words} words, not {len(init)}")
         if not isinstance(reserve_sites, int) or isinstance(reserve_sites, bool) or reserve_sites < 0:
             raise ValueError(f"Reserved sites must be a non-negative integer, not {reserve_sites!r}")
-        self._words, self._init, self._reserve = words, init, reserve_sites
+        if not isinstance(block_sites, int) or isinstance(block_sites, bool) or block_sites < 0:
+            raise ValueError(f"Block sites must be a non-negative integer, not {block_sites!r}")
+        self._words, self._init, self._reserve, self._block = words, init, reserve_sites, block_sites
         self._bank_words = min(words, POOL_BANK_WORDS)
         self._banks = words // self._bank_words
         aw = (words - 1).bit_length()
@@ -119,7 +125,9 @@ class StreamPool(wiring.Component):
         row). A group's copies reach 8 sites in a row, and the OR of a byte
         over the banks stays in one row. ``reserve_sites`` sites of every
         row are kept together at the start of the middle gap for another
-        RAM (the common delay line's: :meth:`reserved_sites`)."""
+        RAM (the common delay line's: :meth:`reserved_sites`); with
+        ``block_sites`` the sites left are blocks of neighbouring sites in
+        gaps spread along the row (the windows': :meth:`free_blocks`)."""
         BW = self._bank_words
         bank_bits = (BW - 1).bit_length()
         W = 2 * STREAM_WIDTH
@@ -177,27 +185,55 @@ class StreamPool(wiring.Component):
         plan = self._floorplan(platform)
         return plan and plan[1]
 
+    def free_blocks(self, platform):
+        """The blocks of ``block_sites`` neighbouring free sites, taken from
+        the rows in turn (the first block of every row, then the second...),
+        so that RAMs placed in them in order spread over the rows; ``None``
+        where the banks are not placed or ``block_sites`` is 0."""
+        plan = self._floorplan(platform)
+        if not plan or not self._block:
+            return None
+        per_row = plan[2]
+        return [row[j] for j in range(max(map(len, per_row))) for row in per_row if j < len(row)]
+
     def _floorplan(self, platform):
-        """``(sites[group][bank], reserved[row])``: the bels of each group's
-        slices (see :meth:`_elaborate_banks`) and of each row's reserved
-        block, or ``None`` where the device's rows are unknown or too few or
-        too short for this pool (a single bank is never placed)."""
+        """``(sites[group][bank], reserved[row], blocks[row][block])``: the
+        bels of each group's slices (see :meth:`_elaborate_banks`), of each
+        row's reserved block and of its blocks of ``block_sites``, or
+        ``None`` where the device's rows are unknown or too few or too short
+        for this pool (a single bank is never placed)."""
         rows = block_ram_rows(platform)
         if self._banks == 1 or rows is None:
             return None
         per_group = [dp16kd_mode(gw, self._bank_words)[1] for _, gw in self._groups()]
-        B, R = self._banks, self._reserve
+        B, R, K = self._banks, self._reserve, self._block
         if len(rows) < len(per_group) or any(B * n + R > len(r) for n, r in zip(per_group, rows)):
             return None
-        plan, reserved = [], []
+        plan, reserved, blocks = [], [], []
         mid = (B + 1) // 2
         for row, n in zip(rows, per_group):
-            # the sites left free, spread over the B + 1 gaps before, between
-            # and after the groups; the reserved block at the start of the
-            # middle gap (after bank mid - 1)
+            # B + 1 gaps before, between and after the groups: the reserved
+            # block at the start of the middle gap (after bank mid - 1), the
+            # blocks of K spread over the gaps, the single sites left spread
             free = len(row) - B * n - R
-            first = [free * (b + 1) // (B + 1) + b * n + (R if b >= mid else 0) for b in range(B)]
-            plan.append([row[f:f + n] for f in first])
-            r0 = free * mid // (B + 1) + mid * n
-            reserved.append(row[r0:r0 + R])
-        return plan, reserved
+            k = free // K if K else 0
+            single = free - k * K
+            in_gap = [0] * (B + 1)
+            for j in range(k):
+                in_gap[min(B, int((j + 0.5) * (B + 1) / k))] += 1
+            at, groups, row_blocks = 0, [], []
+            for g in range(B + 1):
+                if g == mid:
+                    reserved.append(row[at:at + R])
+                    at += R
+                for _ in range(in_gap[g]):
+                    row_blocks.append(row[at:at + K])
+                    at += K
+                at += single * (g + 1) // (B + 1) - single * g // (B + 1)
+                if g < B:
+                    groups.append(row[at:at + n])
+                    at += n
+            assert at == len(row)
+            plan.append(groups)
+            blocks.append(row_blocks)
+        return plan, reserved, blocks

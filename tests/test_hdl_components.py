@@ -60,6 +60,8 @@ def test_delay_line_parameters():
         DelayLine(8, 4, group_bits=2, address_copies=5)
     with pytest.raises(ValueError, match=r"^Reserved sites must be a non-negative integer, not -1$"):
         StreamPool(16, 4, reserve_sites=-1)
+    with pytest.raises(ValueError, match=r"^Block sites must be a non-negative integer, not True$"):
+        StreamPool(16, 4, block_sites=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")      # never elaborated: UnusedElaboratable
         assert [DelayLine(8, d).depth for d in (0, 14, 15)] == [2, 16, 32]
@@ -206,6 +208,34 @@ def test_the_common_line_lies_in_a_block_the_pool_keeps_free():
         assert 52 // 4 <= index[0] <= 3 * 52 // 4                      # in the row's middle half
         banks = sorted(row.index(bel) for bel in pool if bel in row)
         assert len(banks) == 40
+
+
+def test_each_window_lies_in_a_block_of_its_own():
+    """With the pool's banks placed, the sites it leaves are blocks of
+    neighbouring sites, one for each pipeline's window, taken from the rows
+    in turn: at 64 channels (seven pipelines) every window's 4 block RAMs in
+    4 neighbouring sites of one row, the windows spread over the four rows,
+    no site shared with the pool, the common line or another window."""
+    import re
+    from amaranth.back import rtlil
+    from rast.hdl.ecp5_primitives import block_ram_rows
+    from rast.hdl.replay_top import WindFarmReplay
+    rows = block_ram_rows(_85F())
+    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(64, slots=10, pool_words=5 * POOL_BANK_WORDS,
+                                                     max_delay=8190, max_tap=2046), platform=_85F()))
+    assert len(bels) == 160 + 16 + 7 * 4 and None not in bels.values() and len(set(bels.values())) == len(bels)
+    windows = {}
+    for path, bel in bels.items():
+        if "window" in path:
+            windows.setdefault(int(re.search(r"pipe(\d+)", path).group(1)), []).append(bel)
+    assert sorted(windows) == list(range(7))
+    used_rows = []
+    for p, sites in windows.items():
+        (row,) = {k for k, r in enumerate(rows) for bel in sites if bel in r}
+        index = sorted(rows[row].index(bel) for bel in sites)
+        assert index == list(range(index[0], index[0] + 4)), (p, index)
+        used_rows.append(row)
+    assert [used_rows.count(r) for r in range(4)] == [2, 2, 2, 1]
 
 
 def test_stream_pool_no_floorplan_where_rows_lack_room():
