@@ -347,6 +347,7 @@ class RegisterFile(wiring.Component):
         land_data = {}        # channel (None: global) -> the landing data
         land_field = {}       # (register address, field name) -> landing value
         land_apply = {}       # channel (None: global) -> APPLY (bit 0) landing
+        next_apply = None     # the global APPLY landing's input: APPLY lands in the next clock
         clamped = {}          # field -> its clamped value, in the clock before landing
         group_hit = {}        # group (None: global) -> "the access in stage wd - 1 writes it or APPLY"
         units = [(None, [r for r in rmap.registers if r.channel is None])]
@@ -360,7 +361,10 @@ class RegisterFile(wiring.Component):
                 return op.valid & op.write & (_within(op.addr, lo_addr, hi_addr) | (op.addr == apply_addr))
             hit = group_hit[g] = decoded(in_group, 1, f"hit_{tag}")
             dcopy = landing(Mux(hit, before.data, 0), 32, f"land_data_{tag}", data=True)
-            ap = landing(writes(apply_addr) & before.data[0], 1, f"land_apply_{tag}")
+            ap_in = writes(apply_addr) & before.data[0]
+            ap = landing(ap_in, 1, f"land_apply_{tag}")
+            if g is None:
+                next_apply = ap_in
             group_clamped = {}
             for r in regs:
                 suffix = "" if r.channel is None else str(r.channel)
@@ -582,11 +586,17 @@ class RegisterFile(wiring.Component):
                 m.d.sync += rg.cmd_valid.eq(0)
             m.d.comb += [rg.enable.eq(storage[("CTRL", l, "enable")]), rg.tap.eq(tap)]
 
+        # The common delay that applies from the next clock, in a register:
+        # from APPLY's landing input, a clock before it lands, and the value
+        # COMMON_DELAY holds in the next clock (from APPLY's landing
+        # register it was a latest path of the two-pipeline build, into the
+        # common line's read address, 6.3-6.5 ns).
         common = rmap.reg("COMMON_DELAY")
-        applied = Signal(self._cw, init=common.fields[0].reset, name="common_delay_applied")
-        m.d.comb += self.common_delay_next.eq(Mux(land_apply[None], storage[("COMMON_DELAY", None, "delay")],
-                                                  applied))
-        m.d.sync += applied.eq(self.common_delay_next)
+        stored_cd = storage[("COMMON_DELAY", None, "delay")]
+        next_cd = Mux(strobe[common.addr], land_field[(common.addr, "delay")], stored_cd)   # stored_cd's next
+        applies = Signal(self._cw, init=common.fields[0].reset, name="common_delay_next")
+        m.d.sync += applies.eq(Mux(next_apply, next_cd, applies))
+        m.d.comb += self.common_delay_next.eq(applies)
 
         # Pool write path, registered.
         m.d.sync += self.wr_en.eq(data_w)
