@@ -212,20 +212,30 @@ class SampleIO(wiring.Component):
             before = Signal.like(self.slot, init=M - 1, name="pin_slot_before")
             m.d[d] += before.eq(self.slot)
 
-        def in_slot(slots, ahead=0):
-            """This clock's slot (``ahead`` clocks later's) is in ``slots``."""
-            return Cat(*[before == (k - 1 - ahead) % M for k in slots]).any() if M > 1 else Const(0 in slots)
+        def in_slot(slots, ahead=0, slot_before=None):
+            """This clock's slot (``ahead`` clocks later's) is in ``slots``;
+            ``slot_before``: from a copy of ``before`` XOR M - 1 (0 at reset)."""
+            if M == 1:
+                return Const(0 in slots)
+            if slot_before is None:
+                return Cat(*[before == (k - 1 - ahead) % M for k in slots]).any()
+            return Cat(*[slot_before == ((k - 1 - ahead) % M) ^ (M - 1) for k in slots]).any()
 
         # The pattern's two half clocks of this slot, registered: high while
         # the half clock's index within the period is below M.
         first_i, second_i = range((M + 1) // 2), range(M // 2)     # 2·slot < M, 2·slot + 1 < M
         # A pair of registers per pin, kept apart (one pair for the three
-        # pins was a two-pipeline build's worst path, 6.5 ns of one route).
+        # pins was a two-pipeline build's worst path, 6.5 ns of one route),
+        # decoded from a copy of the slot of their own, beside them (from
+        # ``before``, 6.0 ns at two pipelines): kept too, so its reset to 0
+        # stands for ``before``'s M - 1.
         for name, cell in (("adc_clk", adc_clk), ("dac_clk", dac_clk), ("dac_iq", dac_iq)):
-            m.d.comb += [cell.o[0].eq(kept_register(m, platform, in_slot(first_i), f"{name}_hi0",
-                                                    reset=True, domain=d)),
-                         cell.o[1].eq(kept_register(m, platform, in_slot(second_i), f"{name}_hi1",
-                                                    reset=True, domain=d))]
+            own = kept_register(m, platform, self.slot ^ (M - 1), f"{name}_slot", reset=True,
+                                domain=d) if M > 1 else None
+            m.d.comb += [cell.o[0].eq(kept_register(m, platform, in_slot(first_i, slot_before=own),
+                                                    f"{name}_hi0", reset=True, domain=d)),
+                         cell.o[1].eq(kept_register(m, platform, in_slot(second_i, slot_before=own),
+                                                    f"{name}_hi1", reset=True, domain=d))]
 
         # ADC: the pin clock's rising edge is PIN_LAG clocks after the slot-0
         # clock that made it; the IDDRX1F shows a pin sample the clock after.
