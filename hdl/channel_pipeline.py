@@ -68,9 +68,9 @@ COEF_ROM_SPLIT_BITS = 3
 #: The word cache in up to 2**k banks, by the slot's upper bits.
 CACHE_BANK_BITS = 3
 
-
 #: Bits of the FIR accumulator's lower half (its sum a clock before the upper's).
 ACC_LOW_BITS = 19
+
 
 #: Shortest delay kept in distributed RAM rather than in a chain of registers.
 RAM_DELAY_MIN = 3
@@ -702,9 +702,10 @@ class ChannelPipeline(wiring.Component):
         # the RAM's output register went straight into the multipliers' input
         # registers, the latest path of a two-pipeline build (7.9 ns, 6.9 of
         # it routing, docs/bitstream.md). c[n] comes from the common line
-        # COMMON_OUT_CYCLES after the period start and reaches the RAM just after the
-        # last read of the step before (a write for step n + 1 never meets a
-        # read for step n at the RAM: tests/formal/replay_formal.py's rule).
+        # COMMON_OUT_CYCLES after the period start and reaches the RAM just
+        # after the last read of the step before (a write for step n + 1 never
+        # meets a read for step n at the RAM: tests/formal/replay_formal.py's
+        # rule).
         # Each of the window's block RAMs has its write and read-address
         # registers of its own (the line's groups), so the write is handed to
         # the line a clock before it reaches the RAM.
