@@ -272,11 +272,12 @@ class WindFarmReplay(wiring.Component):
                                              reserve_sites=per_row, block_sites=win_mode[1] if win_mode else 0)
         reserved = pool and pool.reserved_sites(platform)
         window_blocks = (pool and pool.free_blocks(platform)) or []
+        common_bits = DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
+        common_groups = -(-2 * INPUT_WIDTH // common_bits)
         m.submodules.common = common = DelayLine(
-            2 * INPUT_WIDTH, c.max_delay, COMMON_LAG,
-            group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG),
+            2 * INPUT_WIDTH, c.max_delay, COMMON_LAG, group_bits=common_bits,
             sites=[bel for row in reserved for bel in row][:mode[1]] if reserved else None,
-            address_copies=len(rows) if rows else 1)
+            address_copies=min(len(rows), common_groups) if rows else 1)
         assert common.depth == c.common_depth and common.latency == ACCEPT_LAG + COMMON_OUT_CYCLES
         cnt = Signal(range(c.common_depth))
         with m.If(accept):
