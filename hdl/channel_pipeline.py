@@ -339,17 +339,17 @@ class ChannelPipeline(wiring.Component):
         fl = data.StructLayout({"regs": rl, "force_swap": 1, "force_pending": 1})
         flags = Signal(fl, name="rsel_flags")
         m.d.comb += rsel.as_value().eq(Cat(flags.regs, _delay(m, self.values, V - 1, "rsel_values")))
-        regs = [Cat(r, r.cmd_valid & ~r.cmd_enable & r.cmd_swap, r.cmd_valid & ~r.cmd_enable)
-                for r in self.regs]
+        with_force = [Cat(r, r.cmd_valid & ~r.cmd_enable & r.cmd_swap, r.cmd_valid & ~r.cmd_enable)
+                      for r in self.regs]
         if M == 1:
-            m.d.sync += flags.eq(regs[0])
+            m.d.sync += flags.eq(with_force[0])
         elif V == 1:
-            m.d.sync += flags.eq(Array(regs)[rslot])
+            m.d.sync += flags.eq(Array(with_force)[rslot])
         else:
             groups = []
             for g in range(0, M, 4):
                 part = Signal(fl, name=f"rsel_g{g // 4}")
-                members = regs[g:g + 4]
+                members = with_force[g:g + 4]
                 m.d.sync += part.eq(Array(members)[rslot[:2]] if len(members) > 1 else members[0])
                 groups.append(part)
             if len(groups) > 1:

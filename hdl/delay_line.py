@@ -89,12 +89,14 @@ class DelayLine(wiring.Component):
             raise ValueError(f"Sites must be None or, with groups of block RAMs, {groups or 'no'} bel "
                              f"names, not {sites!r}")
         self._sites = sites
-        if address_copies is not None and (not isinstance(address_copies, int) or isinstance(address_copies, bool)
-                                           or groups == 0 or not 0 < address_copies <= groups):
-            raise ValueError(f"Address copies must be None or, with groups of block RAMs, an integer in "
-                             f"[1, {groups}], not {address_copies!r}" if groups else
-                             f"Address copies must be None without groups of block RAMs, not "
-                             f"{address_copies!r}")
+        if address_copies is not None:
+            if not groups:
+                raise ValueError(f"Address copies must be None without groups of block RAMs, "
+                                 f"not {address_copies!r}")
+            if not isinstance(address_copies, int) or isinstance(address_copies, bool) \
+                    or not 0 < address_copies <= groups:
+                raise ValueError(f"Address copies must be None or, with groups of block RAMs, an integer "
+                                 f"in [1, {groups}], not {address_copies!r}")
         self._address_copies = address_copies
         self._width = width
         self._max_delay = max_delay
