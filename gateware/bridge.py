@@ -30,14 +30,9 @@ class UARTBridge(wiring.Component):
         Clock cycles per UART bit.
     timeout : int
         Cycles without a received byte after which a partial frame is dropped.
-    ready_apart : bool
-        ``bus.ready`` is never high in two clocks running (the replay block
-        takes the bus once a period from M = 2 slots on). The bridge then
-        acts on the bus's ready, r_valid and r_data a clock late, from
-        registers of its own: its strobe stays high a clock after the take,
-        a clock in which ready is low. Those inputs come from the register
-        file across the device; straight into the bridge's state they were
-        among the 200 MHz builds' late paths (docs/bitstream.md).
+
+    The bus it drives must never be ready in two clocks running (the replay
+    block takes it at most once in TAKE_SPACING clocks).
 
     Members
     -------
@@ -48,7 +43,7 @@ class UARTBridge(wiring.Component):
         Frames executed (wraps), for a status LED or a test.
     """
 
-    def __init__(self, addr_width, divisor, timeout, *, ready_apart=False):
+    def __init__(self, addr_width, divisor, timeout):
         if not isinstance(addr_width, int) or isinstance(addr_width, bool) or not 1 <= addr_width <= 16:
             raise ValueError(f"Address width must be an integer in [1, 16], not {addr_width!r}")
         if not isinstance(timeout, int) or isinstance(timeout, bool) or timeout < 20 * divisor:
@@ -57,9 +52,6 @@ class UARTBridge(wiring.Component):
         self._addr_width = addr_width
         self._divisor = divisor
         self._timeout = timeout
-        if not isinstance(ready_apart, bool):
-            raise TypeError(f"Ready apart must be a bool, not {ready_apart!r}")
-        self._ready_apart = ready_apart
         super().__init__({
             "rx": In(1, init=1),
             "tx": Out(1, init=1),
@@ -114,12 +106,15 @@ class UARTBridge(wiring.Component):
         w_data = Signal(32)
         m.d.comb += [bus.addr.eq(addr), bus.w_data.eq(w_data), bus.w_stb.eq(w_stb),
                      bus.r_stb.eq(r_stb)]
-        if self._ready_apart:
-            taken, r_valid, r_data = Signal(), Signal(), Signal(32)
-            m.d.sync += [taken.eq(bus.ready & (w_stb | r_stb)), r_valid.eq(bus.r_valid),
-                         r_data.eq(bus.r_data)]
-        else:
-            taken, r_valid, r_data = bus.ready, bus.r_valid, bus.r_data
+        # The bus's ready, r_valid and r_data are acted on a clock late, from
+        # registers of the bridge's own: they come from the register file
+        # across the device, and straight into the state they were among the
+        # 200 MHz builds' late paths (docs/bitstream.md). The strobe stays
+        # high a clock after the take, a clock in which ready is low (the bus
+        # is never ready in two clocks running).
+        taken, r_valid, r_data = Signal(), Signal(), Signal(32)
+        m.d.sync += [taken.eq(bus.ready & (w_stb | r_stb)), r_valid.eq(bus.r_valid),
+                     r_data.eq(bus.r_data)]
 
         with m.FSM():
             with m.State("IDLE"):

@@ -100,8 +100,7 @@ class ReplaySystem(wiring.Component):
         self.divisor = divisor if divisor is not None else uart_divisor(clk_hz, baud)
         self.timeout = timeout if timeout is not None else max(20 * self.divisor,
                                                                round(clk_hz * timeout_s))
-        self.bridge = UARTBridge(self.replay.register_map.addr_width, self.divisor, self.timeout,
-                                 ready_apart=self.replay.contract.slots >= 2)
+        self.bridge = UARTBridge(self.replay.register_map.addr_width, self.divisor, self.timeout)
         super().__init__({
             "rx": In(1, init=1),
             "tx": Out(1, init=1),

@@ -6,14 +6,14 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from ..model.regmap import RegisterMap, CRC32_POLY, STORED, CHANNEL_BASE, CHANNEL_STRIDE
-from ..model.fixedpoint import STREAM_WIDTH, write_staging
+from ..model.fixedpoint import STREAM_WIDTH, WRITE_STAGING
 from .ecp5_primitives import kept_register
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
 PREDECODE_BITS = 4
 
 __all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "slot_values_layout", "SLOT_RAM_FIELDS",
-           "crc32_step", "crc_clocks", "crc_loads_first", "match_stages"]
+           "crc32_step", "CRC_CLOCKS", "MATCH_STAGES"]
 
 #: The per-channel values the engine reads by slot from a distributed RAM per
 #: group of channels (a pipeline's): name in ``slot_values_layout`` ->
@@ -51,33 +51,21 @@ def crc32_step(crc, bits):
     return Cat(*out)
 
 
-def match_stages(slots: int) -> int:
-    """Registered levels of the SWAP check (the run's start, words and CRC
-    against a channel's BASE, LENGTH and CRC): none at M = 1, one at M = 2,
-    two from M = 3 (the comparisons, then their AND: about 60 bits compared
-    in one clock was a 200 MHz build's worst path, 7.2 ns, docs/bitstream.md),
-    three from M = 8 (the RAMs' words registered first: their read and the
-    comparison, 9.8 ns at 64 channels). Each level is a clock of the write's
-    staging (``write_staging``), one clock of which reads the check's RAMs."""
-    return write_staging(slots) - 1
-
-
-def crc_clocks(slots: int) -> int:
-    """Clocks the stream CRC takes per word: the most of 4 (a byte a clock),
-    2 and 1 with which the CRC and then the SWAP check (``match_stages``) are
-    complete when the next write lands, M clocks later (4 from M = 6, 2 at
-    M = 4 and 5). A byte a clock keeps each step's XORs sparse (one register
-    bit and a few of the byte's), where a word a clock is a dense network of
-    the register in its own loop."""
-    return next(k for k in (4, 2, 1) if k + match_stages(slots) <= slots)
-
-
-def crc_loads_first(slots: int) -> bool:
-    """Whether a landing stream word only loads the CRC's shift register, the
-    CRC then stepping from there alone (a clock more: M = 5 and from M = 7):
-    the landing word straight into the CRC's XORs was a 200 MHz build's
-    worst path (6.8 ns, docs/bitstream.md)."""
-    return crc_clocks(slots) + 1 + match_stages(slots) <= slots
+#: Registered levels of the SWAP check (the run's start, words and CRC
+#: against a channel's BASE, LENGTH and CRC): the RAMs' words registered,
+#: the comparisons in parts of 8 bits, their AND (about 60 bits compared in
+#: one clock was a 200 MHz build's worst path, 7.2 ns; the RAMs' read and
+#: the comparison in one clock 9.8 ns at 64 channels, docs/bitstream.md).
+#: Each level is a clock of the write's staging (WRITE_STAGING), from the
+#: bus's register on; the first reads the check's RAMs.
+MATCH_STAGES = 3
+#: Clocks the stream CRC takes per word after the clock that loads it into
+#: a shift register: a byte a clock keeps each step's XORs sparse (one
+#: register bit and a few of the byte's), where a word a clock is a dense
+#: network of the register in its own loop, and the landing word straight
+#: into the XORs was a 200 MHz build's worst path (6.8 ns). The CRC and the
+#: SWAP check are complete before the next write lands (TAKE_SPACING).
+CRC_CLOCKS = 4
 
 
 class BusSignature(wiring.Signature):
@@ -129,15 +117,16 @@ class RegisterFile(wiring.Component):
     The engine's timing decides when the bus may be taken and when what is
     taken lands: ``take`` (from the engine) is the bus's ``ready``; a write
     taken in cycle t lands (storage, commands, APPLY, the pool write) in cycle
-    ``t + write_delay``. A read taken in cycle t samples the stored values in
-    cycle ``t + write_delay``, the engine's per-channel state mirrors
+    ``t + WRITE_STAGING``. A read taken in cycle t samples the stored values in
+    cycle ``t + WRITE_STAGING``, the engine's per-channel state mirrors
     (CTRL.swap, CTRL.bank) in cycle ``t + mirror_delay`` and the sticky
     overflow flag in cycle ``t + status_delay`` (clearing it there), so that
     every part of the answer is the state between the same two steps; the
     answer is on ``r_data`` with ``r_valid`` ``read_latency`` cycles after t.
-    With M >= 2 slots, ``take`` must be high at most once a period (M
-    clocks), as the engine's is: the read-back reads its RAMs up to two
-    clocks before it samples the other registers.
+    ``take`` must be high at most once in TAKE_SPACING clocks, as the
+    engine's is (``take_interval``): a stream word's CRC and the SWAP check
+    are complete before the next access lands, and the read-back reads its
+    RAMs two clocks before it samples the other registers.
 
     The stream check: the start address, count and CRC-32 of the STREAM_DATA
     words landed since the last STREAM_ADDR write are kept; a CTRL write's
@@ -148,15 +137,14 @@ class RegisterFile(wiring.Component):
     Parameters
     ----------
     rmap : RegisterMap
-    write_delay, mirror_delay, status_delay : int
-        Cycles from a taken access to its landing / sampling points (see above).
+    mirror_delay, status_delay : int
+        Cycles from a taken access to its sampling points (see above).
     groups : list of lists of channels, optional
         Channels whose registers sit together (a pipeline's; all channels if
         not given): each group takes a registered copy of a write's data of
         its own, so the data does not fan out to every channel, and keeps
         its channels' ``SLOT_RAM_FIELDS`` in distributed RAMs, channel
-        ``groups[g][s]`` at slot s. Writes are decoded in the cycle before
-        they land, so ``write_delay`` is at least 1.
+        ``groups[g][s]`` at slot s.
     slots : int, optional
         Slots per group (its RAMs' depth; the longest group if not given):
         a slot without a channel reads 0.
@@ -190,7 +178,7 @@ class RegisterFile(wiring.Component):
         The same for STATUS.underflow (a stream word read before it arrived).
     """
 
-    def __init__(self, rmap: RegisterMap, *, write_delay=1, mirror_delay=1, status_delay=1, groups=None,
+    def __init__(self, rmap: RegisterMap, *, mirror_delay=1, status_delay=1, groups=None,
                  slots=None):
         if not isinstance(rmap, RegisterMap):
             raise TypeError(f"Register map must be a RegisterMap, not {rmap!r}")
@@ -205,16 +193,11 @@ class RegisterFile(wiring.Component):
             raise ValueError(f"Slots must be an integer of at least the longest group's {longest} "
                              f"channels, not {slots!r}")
         self._slots = slots
-        for name, v, least in (("Write delay", write_delay, 1), ("Mirror delay", mirror_delay, 0),
-                               ("Status delay", status_delay, 0)):
-            if not isinstance(v, int) or isinstance(v, bool) or v < least:
-                raise ValueError(f"{name} must be an integer of at least {least}, not {v!r}")
-        if write_delay < match_stages(rmap.contract.slots) + 1:
-            raise ValueError(f"Write delay must be at least {match_stages(rmap.contract.slots) + 1} "
-                             f"(the SWAP check's registered levels and a clock for its read), "
-                             f"not {write_delay!r}")
+        for name, v in (("Mirror delay", mirror_delay), ("Status delay", status_delay)):
+            if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+                raise ValueError(f"{name} must be an integer of at least 0, not {v!r}")
         self._rmap = rmap
-        self._write_delay, self._mirror_delay, self._status_delay = write_delay, mirror_delay, status_delay
+        self._mirror_delay, self._status_delay = mirror_delay, status_delay
         c = rmap.contract
         N = c.channels
         self._cw = rmap.reg("COMMON_DELAY").field("delay").width
@@ -249,7 +232,7 @@ class RegisterFile(wiring.Component):
     @property
     def read_latency(self) -> int:
         """Cycles from a taken read to ``r_valid``."""
-        return max(self._write_delay, self._mirror_delay, self._status_delay) + self.SELECT_LEVELS + 1
+        return max(WRITE_STAGING, self._mirror_delay, self._status_delay) + self.SELECT_LEVELS + 1
 
     def elaborate(self, platform):
         m = Module()
@@ -280,20 +263,16 @@ class RegisterFile(wiring.Component):
         # registers) a copy of the data and of the clamped field values,
         # zero unless the write addresses one of the group's registers or
         # APPLY (so the copies differ in logic and are not merged back into
-        # one by synthesis). Landing is register to register; with two
-        # clocks of staging (M >= 2) the address compares and the clamps'
-        # comparators are a clock earlier still, in ``decoded`` (the
-        # 10-channel build's critical path was op -> compare -> clamp ->
-        # LENGTH); with three (M >= 3) they read the bus from a register
-        # (stage 1), not straight from the host bridge's.
-        wd = self._write_delay
+        # one by synthesis). Landing is register to register; the address
+        # compares and the clamps' comparators are a clock earlier still, in
+        # ``decoded`` (the 10-channel build's critical path was op -> compare
+        # -> clamp -> LENGTH). Nothing but stage 1 reads the bus straight
+        # from the host bridge's registers.
+        wd = WRITE_STAGING
         before = stage[wd - 1]
 
         def decoded(fn, shape, name):
-            """fn(op) of the access in stage wd - 1: registered from stage wd - 2
-            where there is one."""
-            if wd < 2:
-                return fn(before)
+            """fn(op) of the access in stage wd - 1, registered from stage wd - 2."""
             s = Signal(shape, name=name)
             m.d.sync += s.eq(fn(stage[wd - 2]))
             return s
@@ -406,14 +385,12 @@ class RegisterFile(wiring.Component):
         # build's late endpoints (run_count -> run_count, 6.5 ns)
         run_full = Signal(name="run_full")
         count_max = (1 << c.length_width) - 1
-        # The CRC takes crc_clocks(M) clocks per word, 32 / k bits a clock from
-        # ``crc_rest``; the first part in the landing clock unless
-        # crc_loads_first(M), where the landing clock only loads ``crc_rest``.
-        k = crc_clocks(c.slots)
+        # The landing clock loads the word into ``crc_rest``; the CRC then
+        # takes CRC_CLOCKS clocks, 32 / CRC_CLOCKS bits a clock.
+        k = CRC_CLOCKS
         b = 32 // k
-        first = crc_loads_first(c.slots)
-        crc_rest = Signal(32 if first else 32 - b, name="run_crc_rest")
-        crc_left = Signal(range(k + first), name="run_crc_left")
+        crc_rest = Signal(32, name="run_crc_rest")
+        crc_left = Signal(range(k + 1), name="run_crc_left")
         start_addr = rmap.reg("STREAM_ADDR").addr
         with m.If(strobe[start_addr]):
             m.d.sync += [run_start.eq(land_field[(start_addr, "addr")]),
@@ -421,16 +398,10 @@ class RegisterFile(wiring.Component):
         with m.Elif(data_w):
             m.d.sync += [run_count.eq(run_count + ~run_full),
                          run_full.eq(run_full | (run_count == count_max - 1))]
-            if first:
-                m.d.sync += [crc_rest.eq(land_data[None]), crc_left.eq(k)]
-            else:
-                m.d.sync += run_crc.eq(crc32_step(run_crc, land_data[None][:b]))
-                if k > 1:
-                    m.d.sync += [crc_rest.eq(land_data[None][b:]), crc_left.eq(k - 1)]
-        if k > 1 or first:
-            with m.Elif(crc_left != 0):
-                m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
-                             crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
+            m.d.sync += [crc_rest.eq(land_data[None]), crc_left.eq(k)]
+        with m.Elif(crc_left != 0):
+            m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
+                         crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
         # Per group, RAM_FIELDS in distributed RAMs, one per field, by slot
         # (channel groups[g][s] at s), written in the clock a flip-flop would
         # be. Three kinds of read, each a read port (a copy of the RAM):
@@ -521,14 +492,14 @@ class RegisterFile(wiring.Component):
             unstated.append(fresh_of["base"] | fresh_of["length"] | fresh_of["crc"])
 
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
-        stages = match_stages(c.slots)
+        stages = MATCH_STAGES
 
-        # The SWAP check (landings are M clocks apart, so the values are
-        # final match_stages(M) + 1 clocks before a CTRL write lands): each
-        # group compares the run with BASE, LENGTH and CRC of the slot the
-        # write addresses, read at that slot (from the bus, registered), in
-        # parts of 8 bits; the addressed group's result, in match_stages(M)
-        # registered levels, off the path into the command. A slot whose
+        # The SWAP check (landings are at least TAKE_SPACING clocks apart, so
+        # the values are final MATCH_STAGES + 1 clocks before a CTRL write
+        # lands): each group compares the run with BASE, LENGTH and CRC of
+        # the slot the write addresses, read at that slot (from the bus,
+        # registered), in parts of 8 bits; the addressed group's result, in
+        # MATCH_STAGES registered levels, off the path into the command. A slot whose
         # BASE, LENGTH or CRC is unwritten since reset does not match (the
         # RAMs are not reset; the model: ReplayModel.write).
         ctrl_offset = rmap.reg("CTRL", 0).addr - CHANNEL_BASE
@@ -547,22 +518,17 @@ class RegisterFile(wiring.Component):
             raw = {name: ram_reads[g][name][0](kept_register(m, platform, slot_at(src), f"match_slot_{name}_g{g}"))
                    for name in ("base", "length", "crc")}
             m_hit = m_hit & ~unstated[g].bit_select(m_slot, 1)
-            if stages == 3:
-                raw = {name: landing(word, len(word), f"match_{name}_g{g}", data=True)
-                       for name, word in raw.items()}
-                m_hit = landing(m_hit, 1, f"match_hit_r_g{g}")
+            raw = {name: landing(word, len(word), f"match_{name}_g{g}", data=True)
+                   for name, word in raw.items()}
+            m_hit = landing(m_hit, 1, f"match_hit_r_g{g}")
             parts = Cat(equal_parts(run_start, raw["base"]),
                         equal_parts(run_count, raw["length"]),
                         equal_parts(~run_crc, raw["crc"]))
-            if stages >= 2:
-                parts = landing(parts, len(parts), f"match_parts_g{g}")
-                m_hit = landing(m_hit, 1, f"match_hit_q_g{g}")
+            parts = landing(parts, len(parts), f"match_parts_g{g}")
+            m_hit = landing(m_hit, 1, f"match_hit_q_g{g}")
             group_match.append(m_hit & parts.all())
-        match = Cat(group_match).any()
-        if stages >= 1:
-            match_q = Signal(name="match")
-            m.d.sync += match_q.eq(match)
-            match = match_q
+        match = Signal(name="match")
+        m.d.sync += match.eq(Cat(group_match).any())
 
         # Per channel: what the engine reads, the applied tap, the command.
         for l in range(N):
@@ -658,22 +624,21 @@ class RegisterFile(wiring.Component):
                 return Const(f.reset, f.width)
             return None
 
-        parts = [(self._write_delay, stored),
+        parts = [(wd, stored),
                  (self._mirror_delay, lambda key, f: hooks_mirror.get(key)),
                  (self._status_delay, lambda key, f: hooks_status.get(key))]
         # RAM_FIELDS read back from their group's RAMs at the read's slot
         # (from the stage before, registered), sampled with the stored values:
         # the RAM's word, or the reset value while the slot's field is
-        # unwritten since reset. From M = 2 the RAM is read ``early`` clocks
-        # before the sampling point, into registers: the access before the
-        # read was taken a period (M clocks) earlier and has landed by then,
-        # so the word is the one the stored values show at the sampling
-        # point. Two clocks early (M >= 3), the RAM's word, the fresh bit and
-        # the reset value are registered, then selected into a register.
-        # (The RAM's read port and the selection in one clock were the 200
-        # MHz build's worst path at seed 2, 7.4 ns; read into one register,
-        # 6.7 ns.)
-        early = max(0, min(c.slots - 1, 2, wd - 1))
+        # unwritten since reset. The RAM is read two clocks before the
+        # sampling point: the access before the read was taken TAKE_SPACING
+        # clocks or more earlier and has landed by then, so the word is the
+        # one the stored values show at the sampling point. The RAM's word,
+        # the fresh bit and the reset value are registered, then selected
+        # into a register. (The RAM's read port and the selection in one
+        # clock were the 200 MHz build's worst path at seed 2, 7.4 ns; read
+        # into one register, 6.7 ns.)
+        early = 2
         ram_words = []
         for g, members in enumerate(self._groups):
             rd_slot = Signal(slot_bits, name=f"rd_slot_g{g}")
@@ -683,13 +648,11 @@ class RegisterFile(wiring.Component):
                 if f.access == "rw":
                     offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
                     raw_read, fresh, reset_of = ram_reads[g][name]
-                    parts_of = [fresh.bit_select(rd_slot, 1), reset_of[rd_slot], raw_read(rd_slot)]
-                    if early == 2:
-                        parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}")
-                                    for v, what in zip(parts_of, ("use_reset", "reset", "ram"))]
+                    parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}")
+                                for v, what in zip((fresh.bit_select(rd_slot, 1), reset_of[rd_slot],
+                                                    raw_read(rd_slot)), ("use_reset", "reset", "ram"))]
                     word = Mux(*parts_of)
-                    if early:
-                        word = landing(word, word.shape(), f"rd_{name}_g{g}")
+                    word = landing(word, word.shape(), f"rd_{name}_g{g}")
                     ram_words.append((f"{name}_g{g}",
                                       lambda op, members=members, offset=offset: ram_register(op, members, offset),
                                       (word.as_unsigned() << f.lsb)[:32]))

@@ -15,7 +15,7 @@ from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
                                 POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
-                                write_staging, tree_levels, visit_cycles)
+                                WRITE_STAGING, take_interval, tree_levels, visit_cycles)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
 
@@ -161,7 +161,7 @@ class WindFarmReplay(wiring.Component):
         m = Module()
         c = self._contract
         N, M, P = c.channels, c.slots, c.pipelines
-        Sw = write_staging(M)
+        Sw = WRITE_STAGING
         b0 = 0 if M == 1 else 1                       # a pipeline's update stage
         K = c.output_cycles
         regs_layout = channel_regs_layout(self._rmap)
@@ -207,22 +207,29 @@ class WindFarmReplay(wiring.Component):
 
         # ---- registers ---------------------------------------------------------
         # Writes land in the clock before the pipelines' period start (the
-        # accepting clock, top slot 0): taken write_staging clocks earlier. A
+        # accepting clock, top slot 0): taken WRITE_STAGING clocks earlier. A
         # read samples the slots' mirrors after the last slot's update of the
         # step before (the update's end V + b0 after its visit), the sticky
         # overflow after that step's saturation.
         V = visit_cycles(M)
         m.submodules.regs = regs = RegisterFile(
-            self._rmap, write_delay=Sw, mirror_delay=V + b0 + 1 + Sw, status_delay=K + Sw,
+            self._rmap, mirror_delay=V + b0 + 1 + Sw, status_delay=K + Sw,
             groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)], slots=M)
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
         # ``take`` (the bus's ready) from a register: it reaches the host bridge's
         # control, and decoded from the slot counter it was the 10-channel
-        # build's critical path (slot -> ready -> bridge, 7.7 ns).
-        take_slot = (M - Sw) % M
-        take = Signal(init=take_slot == 0)
-        if M > 1:
-            m.d.sync += take.eq(slot == (take_slot - 1) % M)
+        # build's critical path (slot -> ready -> bridge, 7.7 ns). One clock
+        # in take_interval(M) (whole periods), at clock -Sw of a period;
+        # below M = 8 a clock counter of its own counts the interval.
+        W = take_interval(M)
+        take_at = -Sw % W
+        take = Signal(init=take_at == 0)
+        if W == M:
+            m.d.sync += take.eq(slot == (take_at - 1) % M)
+        else:
+            clock = Signal(range(W), name="take_clock")
+            m.d.sync += [clock.eq(Mux(clock == W - 1, 0, clock + 1)),
+                         take.eq(clock == (take_at - 1) % W)]
         m.d.comb += self.overflow.eq(regs.overflow)
         sdram = c.pool == "sdram"
         if sdram:

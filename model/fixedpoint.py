@@ -93,7 +93,8 @@ def unpack_iq(words, width=STREAM_WIDTH):
 import math as _math
 
 __all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "ACCEPT_LAG", "visit_cycles", "WORD_CYCLES",
-            "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "write_staging",
+            "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "WRITE_STAGING",
+            "TAKE_SPACING", "take_interval",
             "tree_levels", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
@@ -344,8 +345,9 @@ def fir_coefficients() -> tuple[tuple[int, ...], ...]:
 # head at O'(j) + s + visit_cycles(M), where it is updated (in one stage at
 # M = 1, in two at M >= 2) and its word, tap, product and gain follow a
 # fixed pipeline. Host writes land in the clock before O'(j) (they are taken
-# from the bus write_staging(M) clocks earlier, ``rast.hdl.registers``), so a
-# write between steps n-1 and n is seen by every channel from step n on.
+# from the bus WRITE_STAGING clocks earlier, ``rast.hdl.registers``), so a
+# write is seen by every channel from the first step whose input is accepted
+# in its landing clock or later.
 # ---------------------------------------------------------------------------
 
 #: Common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY].
@@ -382,19 +384,31 @@ def visit_cycles(slots: int) -> int:
     return 1 if slots <= 2 else 2
 
 
-def write_staging(slots: int) -> int:
-    """Clocks between a host write taken from the bus and the clock in which
-    it lands (the one before the pipelines' period start): 1 at M = 1, 2 at
-    M = 2 (the decode, then the copies per pipeline, each registered), else 3
-    (the bus first in a register of the register file's own: the bridge's
-    data register sat far from the decode and the LENGTH clamp in the SDRAM
-    build, 7.4 ns of routing into the clamp, docs/bitstream.md), and 4 from
-    M = 8, where the SWAP check takes a third registered level (the register
-    file's RAM words registered before they are compared: the RAM's read
-    and the comparison in one clock were the 64-channel build's worst path,
-    9.8 ns). The take moves with it, so a write still takes effect at the
-    same step."""
-    return min(3, slots) if slots < 8 else 4
+#: Clocks between a host write taken from the bus and the clock in which it
+#: lands (the accepting clock, the one before the pipelines' period start),
+#: at every M: the bus first in a register of the register file's own (the
+#: bridge's data register sat far from the decode and the LENGTH clamp, 7.4
+#: ns of routing into the clamp in an SDRAM build; the SWAP check's hit
+#: flags decoded from the bridge's address, 7.0-7.7 ns at 64 channels), the
+#: SWAP check's three registered levels after it (the register file's RAM
+#: words, the comparisons, their AND; a RAM's read and the comparison in one
+#: clock were the 64-channel build's worst path, 9.8 ns, docs/bitstream.md),
+#: and the landing. A write takes effect from the first input accepted in
+#: its landing clock or later.
+WRITE_STAGING = 5
+#: Fewest clocks between two accesses taken from the bus: a stream word's
+#: CRC (a clock that loads the word, then a byte a clock) is complete before
+#: the SWAP check of the next access compares it, two clocks before that
+#: one lands.
+TAKE_SPACING = 8
+
+
+def take_interval(slots: int) -> int:
+    """Clocks from one access taken from the bus to the next: whole periods
+    of M clocks, at least TAKE_SPACING (so that every write lands in an
+    accepting clock): M from M = 8; 8 at M = 1, 2, 4; 9 at M = 3; 2M at
+    M = 5 to 7."""
+    return slots * -(-TAKE_SPACING // slots)
 
 
 def tree_levels(pipelines: int) -> int:

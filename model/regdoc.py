@@ -37,18 +37,24 @@ follow the elaboration parameters.
 
 Bus (`rast.hdl.registers.BusSignature`): word addresses, 32-bit data; `w_stb`
 writes `w_data` to `addr`, `r_stb` reads `addr`, held until the block takes
-the access in a cycle with `ready` high (once per period of M fabric clocks);
+the access in a cycle with `ready` high (once in `take_interval(M)` fabric
+clocks: one period of M clocks from M = 8, whole periods of at least 8
+clocks below);
 a read's answer is on `r_data` in the cycle `r_valid` is high, a fixed number
 of cycles later. Unused addresses read 0, and so do write-only fields
 (access `w`: stored and used by the block, not read back). Written values
 are masked to the field width, then clamped into the field's range where
 one is given (LENGTH 1..pool words, DELAY 0..max).
 
-Timing: a write taken between input samples k − 1 and k (a write taken in
-the clock cycle of an input transfer counts as after it) takes effect from
-step k on for every channel, whatever its slot (it lands in the clock before
-the pipelines' period start, `write_staging(M)` clocks after it was taken;
-`docs/fixed_point.md`); a GAIN or enable change shows from output k.
+Timing: a write lands `WRITE_STAGING` (5) clocks after it was taken, in an
+accepting clock (the one before the pipelines' period start), and takes
+effect for every channel, whatever its slot, from step k on, input k being
+the first the block accepts in that clock or later (`docs/fixed_point.md`);
+a GAIN or enable change shows from output k. From M = 5 no input is
+accepted between the take and the landing, so a write taken between input
+samples k − 1 and k (a write taken in the clock cycle of an input transfer
+counts as after it) takes effect from step k; below M = 5 an input accepted
+in the clocks between counts as before it.
 Reads return the state between the same two steps: the stored values, the
 channels' CTRL.swap/bank and the sticky STATUS.overflow.
 

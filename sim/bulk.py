@@ -10,7 +10,7 @@ and talks to Python through files in the simulator's working directory:
 ``src.hex``   input words (I low), read in order and wrapped modulo ``n_src``
 ``regs.hex``  register script: ``{at_sample[63:0], addr[31:0], data[31:0]}`` per line,
               applied (one write per clock the DUT takes it, ``bus_ready``) before input
-              sample ``at_sample`` is offered
+              sample ``at_sample`` is offered (``PortMap.bus_settle`` clocks before)
 ``out.txt``   captured outputs, ``<cycle> <sample index> <payload>`` in hex per line
 ``summary.txt`` counts and position-weighted checksums of *every* output sample
 
@@ -99,6 +99,9 @@ class PortMap:
     bus_w_stb: str | None = None
     #: the DUT's bus ready (a write is taken in a cycle with it high); None: always
     bus_ready: str | None = None
+    #: clocks after a write is taken in which no input is offered: a write
+    #: lands that many clocks later in the DUT and applies to the next input
+    bus_settle: int = 0
     #: other DUT inputs tied to constants: name -> (width, value)
     tie: dict = field(default_factory=dict)
     #: DUT outputs brought out to the wrapper's ports (name -> width)
@@ -152,7 +155,7 @@ def bulk_verilog(p: PortMap, *, src_aw: int = 22, reg_aw: int = 18) -> str:
                           for n, w in p.observe.items()),
         obs_summary="".join(f'                $fwrite(fd_sum, "obs_{n} %0d\\n", obs_{n});\n'
                             for n in p.observe),
-        bus_ready_default="" if p.bus_ready else "    assign bus_ready = 1'b1;\n",
+        bus_ready_default="" if p.bus_ready else "    assign bus_ready = 1'b1;\n", bus_settle=p.bus_settle,
         in_width=p.in_width, out_width=p.out_width, src_aw=src_aw, reg_aw=reg_aw,
         n_cfg=len(CFG_FIELDS), max_cap=MAX_CAP, cap_base=n_fixed, clock_half_ns=CLOCK_PERIOD_NS // 2,
         burst=BURST_CYCLES)

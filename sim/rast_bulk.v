@@ -111,7 +111,10 @@ ${obs_ports}    input wire start /*verilator public_flat_rw*/,
     wire reg_here = (rptr < n_regs) && (rcur[127:64] <= in_idx);
     wire drained = (drain == 64'd0) || (out_idx == in_idx);
     wire in_ready;
-    wire in_valid = running && !in_done && !reg_here && (gap_left == 64'd0);
+    // clocks after a taken write before the next input is offered, so that
+    // the write applies to it (the DUT's: it lands that many clocks later)
+    reg [7:0] settle_left;
+    wire in_valid = running && !in_done && !reg_here && (gap_left == 64'd0) && (settle_left == 8'd0);
     wire [IN_W-1:0] in_payload = (pulse != pulses && pos < active) ? src[src_ptr[SRC_AW-1:0]] : {IN_W{1'b0}};
     wire bus_we = running && reg_here && drained;
     wire bus_ready;         // the DUT takes the write in a cycle with it high
@@ -170,7 +173,7 @@ ${bus_ready_default}
                     end
                     if (n_regs != 0) $readmemh("regs.hex", regs, 0, n_regs - 1);
                     fd_out = $fopen("out.txt", "w");
-                    src_ptr <= 0; pos <= 0; pulse <= 0; flushed <= 0; rptr <= 0; gap_left <= 0;
+                    src_ptr <= 0; pos <= 0; pulse <= 0; flushed <= 0; rptr <= 0; gap_left <= 0; settle_left <= 0;
                     out_pos <= 0; cap_ptr <= 0; quiet <= 0; x_count <= 0; s1_i <= 0; s2_i <= 0; s1_q <= 0; s2_q <= 0;
                     lfsr_in <= seed[31:0] | 32'd1;
                     lfsr_out <= (seed[63:32] ^ 32'h5a5a_a5a5) | 32'd1;
@@ -184,7 +187,12 @@ ${bus_ready_default}
             end
         end else if (running) begin
             cycles <= cycles + 64'd1;
-            if (bus_we && bus_ready) rptr <= rptr + 64'd1;
+            if (bus_we && bus_ready) begin
+                rptr <= rptr + 64'd1;
+                settle_left <= 8'd${bus_settle};
+            end else if (settle_left != 8'd0) begin
+                settle_left <= settle_left - 8'd1;
+            end
             if (in_valid && in_ready) begin
                 in_idx <= in_idx + 64'd1;
                 if (pulse == pulses) begin

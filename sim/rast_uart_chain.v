@@ -88,11 +88,24 @@ module rast_uart_chain;
         #21 rst = 1'b0;
     end
 
-    // The samples: one per transfer; a bus write taken (w_stb and ready) in
-    // the clock of a transfer takes effect from the next sample.
+    // The samples: one per transfer. A bus write taken (w_stb and ready)
+    // lands RAST_WRITE_STAGING clocks later and takes effect from the first
+    // sample taken in its landing clock or later: it is recorded there.
+    localparam WS = `RAST_WRITE_STAGING;
+    reg w_taken [0:WS-1];
+    reg [31:0] w_addr [0:WS-1];
+    reg [31:0] w_data [0:WS-1];
+    integer j;
+    initial for (j = 0; j < WS; j = j + 1) w_taken[j] = 1'b0;
     always @(posedge clk) if (!rst) begin
-        if (`RAST_BUS.bus__w_stb && `RAST_BUS.bus__ready)
-            $fwrite(fw, "%h %h %h\n", step + (i_ready ? 1 : 0), `RAST_BUS.bus__addr, `RAST_BUS.bus__w_data);
+        if (w_taken[WS - 1])
+            $fwrite(fw, "%h %h %h\n", step, w_addr[WS - 1], w_data[WS - 1]);
+        for (j = WS - 1; j > 0; j = j - 1) begin
+            w_taken[j] <= w_taken[j - 1]; w_addr[j] <= w_addr[j - 1]; w_data[j] <= w_data[j - 1];
+        end
+        w_taken[0] <= `RAST_BUS.bus__w_stb && `RAST_BUS.bus__ready;
+        w_addr[0] <= `RAST_BUS.bus__addr;
+        w_data[0] <= `RAST_BUS.bus__w_data;
         if (i_ready) begin
             step <= step + 1;
             src_ptr <= (src_ptr + 1 == n_src) ? 0 : src_ptr + 1;

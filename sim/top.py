@@ -8,6 +8,7 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
+from rast.model.fixedpoint import WRITE_STAGING
 from rast.sim.bulk import PortMap, bulk_verilog
 
 __all__ = ["TOP_MODULE", "port_map", "top_sources", "sdram_engine_top_sources"]
@@ -22,7 +23,8 @@ def port_map(addr_width: int, module: str = TOP_MODULE, observe=("overflow",)) -
                    in_ready="i__ready", in_width=32, out_payload="o__payload",
                    out_valid="o__valid", out_ready="o__ready", out_width=32,
                    bus_addr="bus__addr", bus_addr_width=addr_width, bus_w_data="bus__w_data",
-                   bus_w_stb="bus__w_stb", bus_ready="bus__ready", tie={"bus__r_stb": (1, 0)},
+                   bus_w_stb="bus__w_stb", bus_ready="bus__ready", bus_settle=WRITE_STAGING - 1,
+                   tie={"bus__r_stb": (1, 0)},
                    observe={n: 1 for n in observe}, open_outputs=("bus__r_data", "bus__r_valid", "slot"))
 
 

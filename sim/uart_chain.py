@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import unpack_iq
+from rast.model.fixedpoint import WRITE_STAGING, unpack_iq
 from rast.model.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
 
 __all__ = ["ModelBoard", "ChainResult", "run_chain", "host_clocks", "weighted_sums", "burst_train",
@@ -154,10 +154,11 @@ def run_chain(system, sent, src_words, n_steps, work, *, tail=100_000) -> ChainR
     from amaranth.back import verilog
     from .sdram_top import SDRAMSystemTop
     work = Path(work)
+    defines = (f"RAST_WRITE_STAGING={WRITE_STAGING}",)
     if isinstance(system, SDRAMSystemTop):
-        sources, defines = system.verilog_sources("rast_system"), ("RAST_SDRAM",)
+        sources, defines = system.verilog_sources("rast_system"), (*defines, "RAST_SDRAM")
     else:
-        sources, defines = {"rast_system.v": verilog.convert(system, name="rast_system", emit_src=False)}, ()
+        sources = {"rast_system.v": verilog.convert(system, name="rast_system", emit_src=False)}
     sources["rast_uart_chain.v"] = resources.files("rast.sim").joinpath("rast_uart_chain.v").read_text()
     exe = _build(sources, work, defines)
     run = work / "uart_chain-run"

@@ -3,7 +3,7 @@
 ``run_replay`` drives a :class:`WindFarmReplay` cycle by cycle: input samples
 under a valid pattern, output back-pressure under a ready pattern, and register
 accesses, recording for every access the step index at which it took effect
-(the number of input transfers in cycles up to and including its own). The
+(the number of input transfers before the clock it lands in). The
 same sequence is then replayed through the bit-exact model.
 """
 
@@ -13,6 +13,7 @@ import numpy as np
 from amaranth.sim import Simulator
 
 from rast.model.datapath import ReplayModel
+from rast.model.fixedpoint import WRITE_STAGING, take_interval
 
 
 def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False):
@@ -20,10 +21,11 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
 
     An op is presented from the first cycle in which at least ``at_step``
     inputs have been accepted and taken in the first cycle with ``bus.ready``
-    (with ``hold``, no input is offered while an op is due, so the op takes
-    effect exactly at ``at_step``). Returns (yi, yq, done_ops) with done_ops a
+    (with ``hold``, no input is offered while an op is due or on its way to
+    landing, so the op takes effect exactly at ``at_step``). Returns (yi, yq, done_ops) with done_ops a
     list of ``(k, kind, addr, value_or_readback)`` in issue order, ``k`` the
-    inputs accepted in cycles up to and including the one the op was taken in.
+    inputs accepted before the op's landing clock, WRITE_STAGING clocks after
+    the one it was taken in (the step from which it takes effect).
     """
     xi = [int(v) for v in xi]
     xq = [int(v) for v in xq]
@@ -31,7 +33,7 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
     ops = sorted(ops, key=lambda o: o[0])
     out_i, out_q, done = [], [], []
     M = dut.contract.slots
-    limit = max_cycles or ((T + len(ops)) * M * 8 + 400)
+    limit = max_cycles or ((T + len(ops)) * take_interval(M) * 8 + 400)
 
     async def bench(ctx):
         vpat = itertools.cycle(valid)
@@ -39,12 +41,13 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
         n_in = 0
         op_i = 0
         reads = []                 # indices into done of reads awaiting r_valid
+        landing = []               # (landing clock, index into done) of ops not yet landed
         for cycle in range(limit):
-            if n_in >= T and len(out_i) >= T and op_i >= len(ops) and not reads:
+            if n_in >= T and len(out_i) >= T and op_i >= len(ops) and not reads and not landing:
                 return
             due = op_i < len(ops) and ops[op_i][0] <= n_in
             v = next(vpat) if n_in < T else 0
-            if hold and due:
+            if hold and (due or landing):
                 v = 0
             r = next(rpat)
             ctx.set(dut.i.valid, v)
@@ -68,16 +71,18 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
                 out_q.append(ctx.get(dut.o.payload.im))
             if ctx.get(dut.bus.r_valid):
                 done[reads.pop(0)][3] = ctx.get(dut.bus.r_data)
-            k = n_in + (1 if ce else 0)
+            while landing and landing[0][0] == cycle:
+                done[landing.pop(0)[1]][0] = n_in
             await ctx.tick()
             if taken:
                 op = ops[op_i]
                 op_i += 1
+                landing.append((cycle + WRITE_STAGING, len(done)))
                 if op[1] == "r":
                     reads.append(len(done))
-                    done.append([k, "r", op[2], None])
+                    done.append([None, "r", op[2], None])
                 else:
-                    done.append([k, "w", op[2], op[3]])
+                    done.append([None, "w", op[2], op[3]])
             if ce:
                 n_in += 1
         raise AssertionError(f"run_replay: not finished after {limit} cycles "

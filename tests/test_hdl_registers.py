@@ -7,7 +7,7 @@ from amaranth.hdl import Module, Signal, ResetInserter
 from amaranth.sim import Simulator
 
 from rast.hdl.registers import RegisterFile, SLOT_RAM_FIELDS
-from rast.model.fixedpoint import ReplayContract, write_staging
+from rast.model.fixedpoint import ReplayContract, WRITE_STAGING, take_interval
 from rast.model.powerup import ChannelInit
 from rast.model.regmap import register_map
 
@@ -22,8 +22,8 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
              for _ in range(channels)]
     rmap = register_map(c, inits)
     groups = [list(range(p * slots, min(channels, (p + 1) * slots))) for p in range(c.pipelines)]
-    wd = max(3, write_staging(slots))       # the engine's from M = 8
-    dut = RegisterFile(rmap, write_delay=wd, groups=groups, slots=slots)
+    wd = WRITE_STAGING
+    dut = RegisterFile(rmap, groups=groups, slots=slots)
     rst = Signal()
     top = Module()
     top.submodules.dut = ResetInserter(rst)(dut)
@@ -43,7 +43,7 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
         ctx.set(dut.bus.w_stb, 1)
         await ctx.tick()
         ctx.set(dut.bus.w_stb, 0)
-        for _ in range(slots + wd):          # landed, and writes stay slots clocks apart
+        for _ in range(take_interval(slots) + wd):     # landed, and writes stay take_interval clocks apart
             await ctx.tick()
 
     async def view(ctx, since_reset):
@@ -72,7 +72,7 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
                 name = str(rng.choice(list(SLOT_RAM_FIELDS)))
                 v = random_value(int(ch), name)
                 await write(ctx, rmap.addr(SLOT_RAM_FIELDS[name][0], int(ch)), v)
-                since_reset += 1 + slots + wd
+                since_reset += 1 + take_interval(slots) + wd
                 expect[(int(ch), name)] = v
             seen, since_reset = await view(ctx, since_reset)
             assert seen == expect, "the view must show the values written"

@@ -10,7 +10,7 @@ from amaranth.sim import Simulator
 
 from rast.hdl.replay_top import WindFarmReplay
 from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import pack_iq, unpack_iq, ReplayContract
+from rast.model.fixedpoint import pack_iq, unpack_iq, ReplayContract, take_interval, TAKE_SPACING, WRITE_STAGING
 from rast.model.regmap import register_map, stream_crc32, ID_VALUE, CTRL_ENABLE, CTRL_SWAP, CTRL_BANK, CTRL_REJECTED
 from rast.model.loadplan import manifest_to_register_writes, manifest_channel_inits
 from rast.model.powerup import ChannelInit
@@ -129,19 +129,22 @@ def test_every_delay_echo_position(register, slots):
     rmap = dut.register_map
     L = dut.latency
     base_sum = common + inits[channel].delay
-    per = L + KW["max_delay"] + KW["max_tap"] + 4
+    lead = 1 + 3 * take_interval(slots) // slots     # steps the two writes take at most (valid gaps)
+    per = lead + L + KW["max_delay"] + KW["max_tap"] + 4
     settle = dut.contract.refill_samples          # muted after reset while the caches fill
     T = settle + per * (maxd + 1)
     xi = np.zeros(T, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     ops = []
     for d in range(maxd + 1):
         start = settle + d * per
-        xi[start + 1] = 20000
+        xi[start + lead] = 20000
         ops += [(start, "w", rmap.addr(register, None if register == "COMMON_DELAY" else channel), d),
                 (start, "w", rmap.addr("APPLY"), 1)]
     hi, hq, done, _ = check(dut, inits, xi, xq, ops, valid=(1, 0, 1), name="delays")
+    assert all(k <= settle + d * per + lead for d in range(maxd + 1) for k, _, _, _ in done[2 * d:2 * d + 2]), \
+        "the writes must take effect before their impulse"
     for d in range(maxd + 1):
-        seg = hi[settle + d * per + 1: settle + (d + 1) * per + 1]
+        seg = hi[settle + d * per + lead: settle + (d + 1) * per + lead]
         hit = np.nonzero(seg)[0]
         assert hit.tolist() == [L + base_sum + d], f"delay {d}: echo at {hit.tolist()}, expected {L + base_sum + d}"
         assert seg[hit[0]] == 10000
@@ -225,6 +228,36 @@ def test_a_read_right_after_a_write_returns_the_value_written(slots):
             assert rv == wv, f"register {wa:#x}: wrote {wv:#x}, read {rv:#x}"
 
 
+
+@pytest.mark.parametrize("slots", [1, 2, 3, 4, 5, 7, 8, 10])
+def test_the_bus_is_taken_once_in_take_interval_clocks_and_lands_in_an_accepting_clock(slots):
+    """``bus.ready`` (docs/registers.md): once in take_interval(M) clocks, at
+    least TAKE_SPACING apart, and each take's landing (WRITE_STAGING clocks
+    later) is a clock in which the block can accept an input."""
+    dut = WindFarmReplay(2, slots=slots, **KW)
+    W = take_interval(slots)
+    takes, accepting = [], set()
+
+    async def bench(ctx):
+        ctx.set(dut.i.valid, 0)
+        ctx.set(dut.o.ready, 1)
+        for cycle in range(6 * W + 40):
+            if ctx.get(dut.bus.ready):
+                takes.append(cycle)
+            if ctx.get(dut.i.ready):
+                accepting.add(cycle)
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    assert W % slots == 0 and W >= TAKE_SPACING
+    assert len(takes) >= 5 and set(np.diff(takes).tolist()) == {W}, f"takes at {takes}"
+    landings = [t + WRITE_STAGING for t in takes if t + WRITE_STAGING < 6 * W + 40]
+    assert landings and all(t in accepting for t in landings), \
+        f"landings {landings} not all in accepting clocks {sorted(accepting)[:12]}..."
+
 def test_identification_registers():
     dut = WindFarmReplay(2, **KW)
     rmap = dut.register_map
@@ -238,8 +271,11 @@ def test_identification_registers():
 @pytest.mark.parametrize("slots", [1, 3])
 def test_switch_at_period_boundary(slots):
     """A new stream written into free pool space while running takes over
-    exactly after the old stream's last word, after the refill's muted samples."""
-    length_old, length_new = 5, 3
+    exactly after the old stream's last word, after the refill's muted samples.
+    The old stream's period (16 samples) is longer than the clocks between
+    two accesses at M = 1 (take_interval), so the read after the SWAP sees it
+    pending."""
+    length_old, length_new = 12, 3
     old = pack_iq([1000 * (k + 1) for k in range(length_old)], [0] * length_old)
     new = pack_iq([-500 * (k + 1) for k in range(length_new)], [7] * length_new)
     inc = 3 << 30                       # 0.75 words per sample
@@ -247,7 +283,7 @@ def test_switch_at_period_boundary(slots):
     dut = WindFarmReplay(1, slots=slots, init=inits, **KW)
     rmap = dut.register_map
     R = dut.contract.refill_samples
-    T = 2 * R + 160
+    T = 2 * R + 260
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     a = rmap.addr
     k0 = R + 10
@@ -256,17 +292,17 @@ def test_switch_at_period_boundary(slots):
     ops += [(k0 + 2, "w", a("BASE", 0), 100), (k0 + 2, "w", a("LENGTH", 0), length_new),
             (k0 + 2, "w", a("PHASE_INC", 0), 1 << 31), (k0 + 2, "w", a("CRC", 0), stream_crc32(new)),
             (k0 + 3, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k0 + 3, "r", a("CTRL", 0), 0),
-            (k0 + 50, "r", a("CTRL", 0), 0), (k0 + 50, "r", a("BASE", 0), 0)]
+            (k0 + 150, "r", a("CTRL", 0), 0), (k0 + 150, "r", a("BASE", 0), 0)]
     hi, hq, done, model = check(dut, inits, xi, xq, ops, valid=(1, 0, 1, 1), name="switch")
     reads = [v for k, kind, ad, v in done if kind == "r"]
     assert reads[0] == CTRL_ENABLE | CTRL_SWAP            # pending
     assert reads[1] == CTRL_ENABLE | CTRL_BANK            # switched
     assert reads[2] == 100
-    # the output is x * word / 2: old words 500..2500, new words -250, -500, -750
+    # the output is x * word / 2: old words 500..6000, new words -250, -500, -750
     L = dut.latency
     out = hi[L + R:]
     first_new = int(np.nonzero(out < 0)[0][0])
-    assert out[first_new - R - 1] == 2500, "switch not at the end of the old period"
+    assert out[first_new - R - 1] == 500 * length_old, "switch not at the end of the old period"
     assert not out[first_new - R:first_new].any(), "not muted while the cache refills"
     assert out[first_new] == -250, "new stream does not start at word 0"
     assert set(out[first_new:].tolist()) == {-250, -500, -750}
@@ -312,8 +348,6 @@ def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, 
     intact, the stream is taken and rejected clears. Gateware and model equal."""
     dut, inits, new, a, R = reload_bench(slots)
     length_new = len(new)
-    T = 3 * R + 200
-    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     sent, start = list(new), 100
     if damage == "bit":
         sent[2] ^= 1 << 20
@@ -321,7 +355,7 @@ def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, 
         del sent[1]
     else:
         start = 101
-    k0, k1 = R + 10, 2 * R + 60
+    q = take_interval(slots) // slots     # steps an access may take (8 at M = 1)
 
     def load(k, words, at):
         return ([(k, "w", a("STREAM_ADDR"), at)] + [(k, "w", a("STREAM_DATA"), w) for w in words]
@@ -329,8 +363,13 @@ def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, 
                    (k, "w", a("PHASE_INC", 0), 1 << 31), (k, "w", a("CRC", 0), stream_crc32(new)),
                    (k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "r", a("CTRL", 0), 0),
                    (k, "r", a("STREAM_CRC"), 0), (k, "r", a("STREAM_COUNT"), 0)])
-    ops = load(k0, sent, start) + [(k1 - 5, "r", a("CTRL", 0), 0)] + load(k1, new, 100)
-    ops += [(T - 5, "r", a("CTRL", 0), 0)]
+    k0 = R + 10
+    first = load(k0, sent, start)
+    k1 = k0 + q * len(first) + R + 50
+    second = load(k1, new, 100)
+    T = k1 + q * len(second) + R + 140
+    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
+    ops = first + [(k1 - 5, "r", a("CTRL", 0), 0)] + second + [(T - 5, "r", a("CTRL", 0), 0)]
     hi, hq, done, model = check(dut, inits, xi, xq, ops, name=f"damaged {damage}")
     reads = [v for k, kind, ad, v in done if kind == "r"]
     assert reads[:3] == [CTRL_ENABLE | CTRL_REJECTED, stream_crc32(sent), len(sent)]
@@ -343,7 +382,8 @@ def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, 
     before = hi[L + R:L + k1]
     assert before.min() > 0 and set(before.tolist()) <= {500, 1000, 1500, 2000, 2500}, \
         "the refused stream played"
-    assert set(hi[L + k1 + 2 * R + 10:].tolist()) == {-250, -500, -750, -1000}
+    k_swap = [step for step, kind, addr, _ in done if kind == "w" and addr == a("CTRL", 0)][-1]
+    assert set(hi[L + k_swap + 2 * R + 10:].tolist()) == {-250, -500, -750, -1000}
 
 
 @pytest.mark.parametrize("slots", [1, 3, 10])
@@ -545,20 +585,22 @@ def test_a_reset_mid_run_drops_every_sample_in_flight(slots, interpolation):
 
 @pytest.mark.parametrize("slots", [1, 2, 3, 4, 5, 6, 7, 8, 10])
 def test_a_swap_right_after_the_last_stream_word_is_taken(slots):
-    """CTRL's SWAP written just after the stream's last word (the two land M
-    clocks apart, the closest the bus allows): the CRC of that word
-    (``crc_clocks``, loaded first from M = 7: ``crc_loads_first``) and the registered check (``match_stages``) are
-    complete in time, so the intact stream is taken, not refused."""
+    """CTRL's SWAP written just after the stream's last word (the two land
+    take_interval(M) clocks apart, the closest the bus allows): the CRC of
+    that word (CRC_CLOCKS after the clock that loads it) and the registered
+    check (MATCH_STAGES) are complete in time, so the intact stream is
+    taken, not refused."""
     dut, inits, new, a, R = reload_bench(slots)
     length_new = len(new)
-    T = 2 * R + 120
-    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     k = R + 10
     ops = [(k, "w", a("BASE", 0), 100), (k, "w", a("LENGTH", 0), length_new),
            (k, "w", a("PHASE_INC", 0), 1 << 31), (k, "w", a("CRC", 0), stream_crc32(new)),
            (k, "w", a("STREAM_ADDR"), 100)] + [(k, "w", a("STREAM_DATA"), w) for w in new]
     ops += [(k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "r", a("CTRL", 0), 0)]
+    T = 2 * R + 120 + len(ops) * take_interval(slots) // slots      # the ops take a step or more each
+    xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     hi, hq, done, model = check(dut, inits, xi, xq, ops, name=f"swap after the last word, M = {slots}")
     reads = [v for _, kind, _, v in done if kind == "r"]
     assert reads[0] in (CTRL_ENABLE | CTRL_SWAP, CTRL_ENABLE | CTRL_BANK), f"CTRL reads {reads[0]:#x}"
-    assert set(hi[dut.latency + k + 2 * R + 10:].tolist()) == {-250, -500, -750, -1000}
+    k_swap = next(step for step, kind, addr, _ in done if kind == "w" and addr == a("CTRL", 0))
+    assert set(hi[dut.latency + k_swap + 2 * R + 10:].tolist()) == {-250, -500, -750, -1000}

@@ -17,7 +17,7 @@ from rast.gateware.top import ReplaySystem
 from rast.errors import UserError
 from rast.load import read_contract, load_manifest, read_status, LoadError
 from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract, pack_iq
+from rast.model.fixedpoint import ReplayContract, WRITE_STAGING, pack_iq
 from rast.model.hostproto import (HostBridge, BRIDGE_ID, ProtocolError, encode_write, CMD_BURST,
                                   encode_read, encode_burst, group_writes, CMD_WRITE)
 from rast.model.regmap import ID_VALUE, register_map, stream_crc32
@@ -43,8 +43,8 @@ def test_encoding():
 
 @pytest.mark.parametrize("slots", [1, 3])
 def test_version_id_and_registers(slots):
-    """From M = 2 the bridge sees the bus's ready and answers a clock late
-    (``UARTBridge(ready_apart=True)``): still every write taken once."""
+    """The bridge sees the bus's ready and answers a clock late: still every
+    write taken once, at M = 1 (a take in 8 clocks) as at M = 3 (9)."""
     sys_ = make_system(slots)
     uart = SimUART(sys_, DIV)
     br = HostBridge(uart)
@@ -114,21 +114,28 @@ def test_load_manifest_end_to_end(tmp_path, streams):
 
     async def samples(ctx):
         # Continuous input (valid every cycle, as from an ADC); record every bus
-        # write with the step at which it takes effect, and every output.
+        # write with the step at which it takes effect (the inputs accepted
+        # before its landing clock, WRITE_STAGING clocks after its take), and
+        # every output.
         ctx.set(sys_.o.ready, 1)
+        landing = []                 # (landing clock, addr, data)
+        clock = 0
         while True:
             n = state["n"]
             ctx.set(sys_.i.valid, n < state["stop"])
             if n < state["stop"]:
                 ctx.set(sys_.i.payload.re, int(xi[n]))
                 ctx.set(sys_.i.payload.im, int(xq[n]))
-            _, _, ce, wstb, addr, data, ov, yre, yim = await ctx.tick().sample(
-                sys_.i.valid & sys_.i.ready, bus.w_stb, bus.addr, bus.w_data,
+            _, _, ce, taken, addr, data, ov, yre, yim = await ctx.tick().sample(
+                sys_.i.valid & sys_.i.ready, bus.w_stb & bus.ready, bus.addr, bus.w_data,
                 sys_.o.valid, sys_.o.payload.re, sys_.o.payload.im)
+            while landing and landing[0][0] == clock:
+                state["writes"].append((state["n"], *landing.pop(0)[1:]))
+            if taken:
+                landing.append((clock + WRITE_STAGING, addr, data))
             if ce:
                 state["n"] += 1
-            if wstb:
-                state["writes"].append((state["n"], addr, data))
+            clock += 1
             if ov:
                 state["y"].append((yre, yim))
 
