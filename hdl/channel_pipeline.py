@@ -19,7 +19,7 @@ from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE
                                 MAC_RESULT_CYCLES, fir_coefficients, mac_merge_cycles, visit_cycles)
 from ..model.powerup import ChannelInit
 
-__all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "COMMON_OUT_CYCLES"]
+__all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "accept_clock", "COMMON_OUT_CYCLES"]
 
 #: Clocks from the period start to the common line's c[n] on ``win_data``
 #: (the top asks the line's read for step n in the accepting clock).
@@ -126,12 +126,22 @@ def _ring_delay(m, sig, n, inits, name, *, input_reg=False):
     return out, [out]
 
 
+def accept_clock(slots: int) -> int:
+    """The clock of a pipeline's period in which its ``accept`` comes: the
+    first (0) at M <= 2; the second (1) from M = 3, where the step flag is
+    first needed at the visit, two clocks after the period start. The top
+    then sends the accept strobe to the pipelines through two levels of
+    registered copies (one copy for seven pipelines spread over the device
+    was the 64-channel build's worst path, 8.3 ns, 6.8 of it one route)."""
+    return 0 if visit_cycles(slots) < 2 else 1
+
+
 class ChannelPipeline(wiring.Component):
     """M channel slots (M = ``contract.slots``) in one pipeline.
 
     Time is cut into periods of M clocks; a period starts in the clock in
-    which the pipeline's slot counter is 0 (``accept`` is high there when the
-    period carries an input sample, a *step*). In slot s of a period the
+    which the pipeline's slot counter is 0 (``accept`` is high in its clock
+    ``accept_clock(M)`` when the period carries an input sample, a *step*). In slot s of a period the
     pipeline reads slot s's registers (``regs[s]``, registered), and one clock
     later slot s's state is at the head of a ring of M state registers: its
     stream word for this step is computed from it, the state is updated (in
@@ -167,7 +177,8 @@ class ChannelPipeline(wiring.Component):
     Members
     -------
     accept : In(1)
-        An input sample is accepted in this clock (only in a period's first clock).
+        The period carries an input sample (only in the period's clock
+        ``accept_clock(M)``).
     regs : In(regs_layout).array(M)
         Per slot: the registers kept in flip-flops.
     values : In(values_layout)
@@ -232,7 +243,7 @@ class ChannelPipeline(wiring.Component):
 
     @property
     def sum_cycles(self) -> int:
-        """Clocks from the pipeline's period start (``accept``'s clock) to the
+        """Clocks from the pipeline's period start (its slot counter at 0) to the
         clock in which ``sum`` holds the period's sum over the slots (the last
         slot's register read and visit, word, product, gain, slot accumulator)."""
         c = self._c
@@ -307,21 +318,24 @@ class ChannelPipeline(wiring.Component):
         rslot = Signal(range(max(2, M)), init=M - 1, name="rslot")
         if M > 1:
             m.d.sync += rslot.eq(Mux(rslot == M - 1, 0, rslot + 1))
-        start = Signal()
-        m.d.comb += start.eq(rslot == 0)
         vslot = _delay(m, rslot, V, "vslot")
         # The period's step flag and step number, loaded at its start, held
         # for the period's M visits (V clocks later).
         W = c.window_depth
         count = Signal(range(W))
+        # ``accept`` comes in the period's clock A (accept_clock), so the
+        # step flag and number are held A clocks later and delayed A less.
+        A = accept_clock(M)
+        astart = Signal()
+        m.d.comb += astart.eq(rslot == A)
         step_h = Signal()
         nidx_h = Signal(range(W))
-        with m.If(start):
+        with m.If(astart):
             m.d.sync += [step_h.eq(self.accept), nidx_h.eq(count)]
             with m.If(self.accept):
                 m.d.sync += count.eq(count + 1)
-        step_v = _delay(m, step_h, V - 1, "step_v")
-        nidx_v = _delay(m, nidx_h, V - 1, "nidx_v")
+        step_v = _delay(m, step_h, V - 1 - A, "step_v")
+        nidx_v = _delay(m, nidx_h, V - 1 - A, "nidx_v")
         offer = _delay(m, self.offer, V, "offer")
 
         # ---- register read: slot rslot's registers, registered ---------------
@@ -715,9 +729,9 @@ class ChannelPipeline(wiring.Component):
         assert win.depth == W
         read_at = WORD_CYCLES - win.latency - 1
         write_at = V + read_at + 1                    # clocks after the period start, at the RAM
-        wen = _delay(m, start & self.accept, write_at - 1, "win_wen")
+        wen = _delay(m, astart & self.accept, write_at - 1 - A, "win_wen")
         wdata = _delay(m, self.win_data, write_at - 1 - COMMON_OUT_CYCLES, "win_wdata", data=True)
-        windex = _delay(m, nidx_h, write_at - 2, "win_windex", data=True)
+        windex = _delay(m, nidx_h, write_at - 2 - A, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
                      win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex", data=True)),
                      win.r_delay.eq(_delay(m, rg.tap, read_at, "win_rdelay", data=True))]

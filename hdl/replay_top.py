@@ -1,12 +1,15 @@
 """The wind-farm replay block of seed Fig. 2.2 as a time-multiplexed engine."""
 
+import operator
+from functools import reduce
+
 from amaranth.hdl import Module, Signal, Mux, Cat, Const, signed
 from amaranth.lib import wiring, stream, data
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
-from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout, COMMON_OUT_CYCLES
+from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout, accept_clock, COMMON_OUT_CYCLES
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
 from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode
@@ -21,6 +24,9 @@ from ..model.powerup import ChannelInit, pool_contents
 
 __all__ = ["WindFarmReplay", "SDRAM_ADDRESS_WIDTH"]
 
+#: Pipelines whose fetch requests are ORed into one register; more are ORed
+#: in two registered levels.
+REQUEST_GROUP = 4
 #: Word address bits of the SDRAM pool's native port: the whole 32 MB.
 SDRAM_ADDRESS_WIDTH = (SDRAM_MAX_POOL_WORDS - 1).bit_length()
 
@@ -325,17 +331,19 @@ class WindFarmReplay(wiring.Component):
         req_addr = Signal.like(pool.r_addr)
         req_tag = Signal(pool_tag)
         credit = Const(1)
+        grouped = P > REQUEST_GROUP          # the requests ORed in two registered levels
         if sdram:
             # Fetches queue in a FIFO in front of the pool, which may refuse
             # them. An offer reaches the FIFO V + 3 clocks later (the
             # pipeline's offer delay, its grant register, the request
-            # register), so a pipeline is offered fetches only while the FIFO,
-            # as counted a clock before, has room for every offer since.
+            # register; one more with the group's), so a pipeline is offered
+            # fetches only while the FIFO, as counted a clock before, has
+            # room for every offer since.
             m.submodules.req_fifo = req_fifo = SyncFIFO(width=len(req_addr) + pool_tag.size,
                                                        depth=SDRAM_REQUEST_FIFO)
             credit = Signal()
             req_lost = Signal()
-            m.d.sync += credit.eq(req_fifo.level <= SDRAM_REQUEST_FIFO - V - 4)
+            m.d.sync += credit.eq(req_fifo.level <= SDRAM_REQUEST_FIFO - V - 4 - grouped)
             with m.If(req_valid & ~req_fifo.w_rdy):
                 m.d.sync += req_lost.eq(1)
             m.d.comb += [req_fifo.w_en.eq(req_valid), req_fifo.w_data.eq(Cat(req_addr, req_tag)),
@@ -348,10 +356,12 @@ class WindFarmReplay(wiring.Component):
         fill_tag = Signal(pool_tag)
         fill_data = Signal.like(pool.d_data, reset_less=True)
         m.d.sync += [fill_valid.eq(pool.d_valid), fill_tag.eq(pool.d_tag), fill_data.eq(pool.d_data)]
-        # grant (visit) -> pipeline's request register -> this register -> the
+        # grant (visit) -> pipeline's request register -> (the group's request
+        # register, beyond REQUEST_GROUP pipelines) -> this register -> the
         # pool -> fill_* -> the pipeline's fill register -> the cache
         if not sdram:
-            assert 4 + pool.latency + 1 <= POOL_FETCH_CYCLES, "the contract's fetch latency is too short"
+            assert 4 + grouped + pool.latency + 1 <= POOL_FETCH_CYCLES, \
+                "the contract's fetch latency is too short"
 
         # ---- the pipelines ---------------------------------------------------------
         pipes = []
@@ -362,8 +372,12 @@ class WindFarmReplay(wiring.Component):
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)
             # a registered copy of the accept strobe for each pipeline (kept:
-            # equal registers are one to Yosys)
-            acc_p = kept_register(m, platform, accept, f"accept{p}", reset=True)
+            # equal registers are one to Yosys); from M = 3 a chain of two,
+            # the pipeline taking it in its period's second clock
+            # (accept_clock)
+            acc_p = accept
+            for k in range(accept_clock(M), -1, -1):
+                acc_p = kept_register(m, platform, acc_p, f"accept{p}" + (f"_{k}" if k else ""), reset=True)
             m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(scan[p] & credit),
                          pl.values.eq(regs.values[p])]
             for s in range(M):
@@ -379,14 +393,24 @@ class WindFarmReplay(wiring.Component):
             m.d.sync += fe.eq(fill_valid & (fill_tag.pipe == p))
             m.d.comb += [pl.fill_en.eq(fe), pl.fill_tag.eq(ft), pl.fill_data.eq(fd)]
             reqs.append(pl)
-        # Only the offered pipeline asks: the requests are ORed, registered.
-        rv, ra, rt = Const(0, 1), Const(0, len(req_addr)), Const(0, pool_tag.size)
-        for p, pl in enumerate(reqs):
-            tag = Cat(Const(p, len(req_tag.pipe)), pl.req_tag)
-            rv = rv | pl.req_valid
-            ra = ra | Mux(pl.req_valid, pl.req_addr, 0)
-            rt = rt | Mux(pl.req_valid, tag, 0)
-        m.d.sync += [req_valid.eq(rv), req_addr.eq(ra), req_tag.eq(rt)]
+        # Only the offered pipeline asks: the requests are ORed, registered,
+        # beyond REQUEST_GROUP pipelines in two levels (the groups', then
+        # theirs): eight pipelines spread over the device into one OR were a
+        # latest path of a 16-channel, 100 MS/s build (7.9 ns).
+        def ored(requests, out):
+            valid, addr, tag = out
+            m.d.sync += [valid.eq(Cat(v for v, _, _ in requests).any()),
+                         addr.eq(reduce(operator.or_, [Mux(v, a, 0) for v, a, _ in requests])),
+                         tag.eq(reduce(operator.or_, [Mux(v, t, 0) for v, _, t in requests]))]
+            return out
+        requests = [(pl.req_valid, pl.req_addr, Cat(Const(p, len(req_tag.pipe)), pl.req_tag))
+                    for p, pl in enumerate(reqs)]
+        if grouped:
+            requests = [ored(requests[g:g + REQUEST_GROUP],
+                             (Signal(name=f"req_valid_g{g}"), Signal.like(req_addr, name=f"req_addr_g{g}"),
+                              Signal(pool_tag.size, name=f"req_tag_g{g}")))
+                        for g in range(0, P, REQUEST_GROUP)]
+        ored(requests, (req_valid, req_addr, req_tag))
 
         if sdram:
             m.d.comb += [regs.underflow_set.eq(Cat(pl.underflow for pl in pipes).any()),

@@ -72,7 +72,9 @@ STALLS = [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1)), ((0, 1, 0, 0, 1), (1,)), ((1,
                                             (2, dict(interpolation="fir")), (2, dict(cmult_form="3mult")),
                                             (3, dict(slots=3)), (4, dict(slots=3)), (5, dict(slots=2)),
                                             (3, dict(slots=2, interpolation="linear")),
-                                            (4, dict(slots=3, interpolation="fir"))])
+                                            (4, dict(slots=3, interpolation="fir")),
+                                            # more than REQUEST_GROUP pipelines: the fetch requests ORed in two levels
+                                            (6, {}), (9, dict(slots=2, interpolation="fir"))])
 def test_random_against_model(channels, opts, valid, ready):
     rng = np.random.default_rng(channels * 100 + len(valid) * 10 + len(ready) + len(opts))
     inits = rand_inits(rng, channels)
