@@ -498,8 +498,8 @@ class RegisterFile(wiring.Component):
         # the values are final MATCH_STAGES + 1 clocks before a CTRL write
         # lands): each group compares the run with BASE, LENGTH and CRC of
         # the slot the write addresses, read at that slot (from the bus,
-        # registered), in parts of 8 bits; the addressed group's result, in
-        # MATCH_STAGES registered levels, off the path into the command. A slot whose
+        # registered), in parts of 8 bits; the group's result, in MATCH_STAGES
+        # registered levels, off the path into the command. A slot whose
         # BASE, LENGTH or CRC is unwritten since reset does not match (the
         # RAMs are not reset; the model: ReplayModel.write).
         ctrl_offset = rmap.reg("CTRL", 0).addr - CHANNEL_BASE
@@ -526,9 +526,11 @@ class RegisterFile(wiring.Component):
                         equal_parts(~run_crc, raw["crc"]))
             parts = landing(parts, len(parts), f"match_parts_g{g}")
             m_hit = landing(m_hit, 1, f"match_hit_q_g{g}")
-            group_match.append(m_hit & parts.all())
-        match = Signal(name="match")
-        m.d.sync += match.eq(Cat(group_match).any())
+            group_match.append(landing(m_hit & parts.all(), 1, f"match_g{g}"))
+        # only the addressed channel's group can match: each channel's command
+        # takes its group's result (their OR, one register for every channel,
+        # was a latest path of a 16-channel, 100 MS/s build, 6.5 ns)
+        match_of = {ch: group_match[g] for g, members in enumerate(self._groups) for ch in members}
 
         # Per channel: what the engine reads, the applied tap, the command.
         for l in range(N):
@@ -545,9 +547,9 @@ class RegisterFile(wiring.Component):
             with m.If(strobe[ctrl.addr]):
                 m.d.sync += [rg.cmd_valid.eq(1),
                              rg.cmd_enable.eq(lnd[ctrl.field("enable").lsb]),
-                             rg.cmd_swap.eq(swap & match)]
+                             rg.cmd_swap.eq(swap & match_of[l])]
                 with m.If(swap):
-                    m.d.sync += rejected[l].eq(~match)
+                    m.d.sync += rejected[l].eq(~match_of[l])
             with m.Elif(self.cmd_ack[l]):
                 m.d.sync += rg.cmd_valid.eq(0)
             m.d.comb += [rg.enable.eq(storage[("CTRL", l, "enable")]), rg.tap.eq(tap)]
@@ -680,7 +682,7 @@ class RegisterFile(wiring.Component):
         access is no read or addresses none of ``words`` ((name, fn(op): the
         access is of this word, word) each)."""
         st = stage[delay]
-        group = 16
+        group = 8            # 16 words ORed into a register: 6.5 ns at 16 channels, 100 MS/s
         groups = [words[k:k + group] for k in range(0, len(words), group)]
         firsts = []
         for g, items in enumerate(groups):
