@@ -72,6 +72,11 @@ class UARTBridge(wiring.Component):
                      utx.data.eq(txq.r_data), utx.valid.eq(txq.r_rdy), txq.r_en.eq(utx.ready)]
 
         byte, stb = urx.data, urx.stb
+        # The reply queue has room for a byte in this clock, from a register:
+        # room for two in the clock before (the queue's level into the state
+        # was a latest path of a 16-channel, 100 MS/s build, 7.1 ns).
+        room = Signal()
+        m.d.sync += room.eq(txq.level < TX_FIFO_DEPTH - 1)
         cmd = Signal(8)
         addr = Signal(16)
         count = Signal(16)
@@ -180,15 +185,15 @@ class UARTBridge(wiring.Component):
                 # the byte selected by n, the word held: the reply queue's
                 # readiness enables two bits, not the whole word (bridge.data
                 # was among the 200 MHz build's late endpoints)
-                m.d.comb += [txq.w_data.eq(reply.word_select(n, 8)), txq.w_en.eq(1)]
-                with m.If(txq.w_rdy):
+                m.d.comb += [txq.w_data.eq(reply.word_select(n, 8)), txq.w_en.eq(room)]
+                with m.If(room):
                     m.d.sync += n.eq(n + 1)
                     with m.If(n == 3):
                         m.d.sync += [n.eq(0), self.frames.eq(self.frames + 1)]
                         m.next = "IDLE"
             with m.State("ACK"):
-                m.d.comb += [txq.w_data.eq(ACK), txq.w_en.eq(1)]
-                with m.If(txq.w_rdy):
+                m.d.comb += [txq.w_data.eq(ACK), txq.w_en.eq(room)]
+                with m.If(room):
                     m.d.sync += self.frames.eq(self.frames + 1)
                     m.next = "IDLE"
         return m
