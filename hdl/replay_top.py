@@ -45,8 +45,10 @@ class WindFarmReplay(wiring.Component):
     the delay lines' lags, plus COMMON_DELAY and the channel's DELAY, in
     samples), whatever the gaps in ``i.valid`` or ``o.ready``: the output
     leaves through a FIFO ``output_cycles`` + 1 clocks after its input.
-    Register accesses are taken (``bus.ready``) once per period so that a
-    write between two steps lands between them for every channel.
+    Register accesses are taken (``bus.ready``) once in
+    ``take_interval(M)`` clocks, whole periods, so that a write lands
+    between two steps for every channel (``WRITE_STAGING`` clocks after it
+    was taken, in an accepting clock).
     Bit-exact model: :class:`rast.model.datapath.ReplayModel`.
 
     Parameters
