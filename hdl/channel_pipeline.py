@@ -319,12 +319,11 @@ class ChannelPipeline(wiring.Component):
         if M > 1:
             m.d.sync += rslot.eq(Mux(rslot == M - 1, 0, rslot + 1))
         vslot = _delay(m, rslot, V, "vslot")
-        # The period's step flag and step number, loaded at its start, held
-        # for the period's M visits (V clocks later).
+        # The period's step flag and step number, loaded in its clock A
+        # (accept_clock, where ``accept`` comes) and held for the period's M
+        # visits (V clocks after the period start, V - 1 - A delays later).
         W = c.window_depth
         count = Signal(range(W))
-        # ``accept`` comes in the period's clock A (accept_clock), so the
-        # step flag and number are held A clocks later and delayed A less.
         A = accept_clock(M)
         astart = Signal()
         m.d.comb += astart.eq(rslot == A)

@@ -22,8 +22,9 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
     An op is presented from the first cycle in which at least ``at_step``
     inputs have been accepted and taken in the first cycle with ``bus.ready``
     (with ``hold``, no input is offered while an op is due or on its way to
-    landing, so the op takes effect exactly at ``at_step``). Returns (yi, yq, done_ops) with done_ops a
-    list of ``(k, kind, addr, value_or_readback)`` in issue order, ``k`` the
+    landing, so the op takes effect exactly at ``at_step``). Returns (yi, yq,
+    done_ops) with done_ops a list of ``(k, kind, addr, value_or_readback)``
+    in issue order, ``k`` the
     inputs accepted before the op's landing clock, WRITE_STAGING clocks after
     the one it was taken in (the step from which it takes effect).
     """

@@ -33,6 +33,12 @@ def rand_inits(rng, n, depth=16, enable=True):
     return out
 
 
+def access_steps(slots):
+    """Steps one register access may take at most: the bus is taken once in
+    take_interval(M) clocks (8 steps at M = 1)."""
+    return take_interval(slots) // slots
+
+
 def check(dut, inits, xi, xq, ops=(), valid=(1,), ready=(1,), name="replay", hold=False):
     hi, hq, done = run_replay(dut, xi, xq, ops, valid, ready, hold=hold)
     mi, mq, reads, model = model_replay(dut.contract, inits, xi, xq, done, dut.init_common_delay)
@@ -131,7 +137,7 @@ def test_every_delay_echo_position(register, slots):
     rmap = dut.register_map
     L = dut.latency
     base_sum = common + inits[channel].delay
-    lead = 1 + 3 * take_interval(slots) // slots     # steps the two writes take at most (valid gaps)
+    lead = 1 + 3 * access_steps(slots)     # steps the two writes take at most (valid gaps)
     per = lead + L + KW["max_delay"] + KW["max_tap"] + 4
     settle = dut.contract.refill_samples          # muted after reset while the caches fill
     T = settle + per * (maxd + 1)
@@ -230,7 +236,6 @@ def test_a_read_right_after_a_write_returns_the_value_written(slots):
             assert rv == wv, f"register {wa:#x}: wrote {wv:#x}, read {rv:#x}"
 
 
-
 @pytest.mark.parametrize("slots", [1, 2, 3, 4, 5, 7, 8, 10])
 def test_the_bus_is_taken_once_in_take_interval_clocks_and_lands_in_an_accepting_clock(slots):
     """``bus.ready`` (docs/registers.md): once in take_interval(M) clocks, at
@@ -259,6 +264,7 @@ def test_the_bus_is_taken_once_in_take_interval_clocks_and_lands_in_an_accepting
     landings = [t + WRITE_STAGING for t in takes if t + WRITE_STAGING < 6 * W + 40]
     assert landings and all(t in accepting for t in landings), \
         f"landings {landings} not all in accepting clocks {sorted(accepting)[:12]}..."
+
 
 def test_identification_registers():
     dut = WindFarmReplay(2, **KW)
@@ -357,7 +363,7 @@ def test_a_stream_damaged_on_the_way_is_refused_and_the_old_one_plays_on(slots, 
         del sent[1]
     else:
         start = 101
-    q = take_interval(slots) // slots     # steps an access may take (8 at M = 1)
+    q = access_steps(slots)
 
     def load(k, words, at):
         return ([(k, "w", a("STREAM_ADDR"), at)] + [(k, "w", a("STREAM_DATA"), w) for w in words]
@@ -599,7 +605,7 @@ def test_a_swap_right_after_the_last_stream_word_is_taken(slots):
            (k, "w", a("PHASE_INC", 0), 1 << 31), (k, "w", a("CRC", 0), stream_crc32(new)),
            (k, "w", a("STREAM_ADDR"), 100)] + [(k, "w", a("STREAM_DATA"), w) for w in new]
     ops += [(k, "w", a("CTRL", 0), CTRL_ENABLE | CTRL_SWAP), (k, "r", a("CTRL", 0), 0)]
-    T = 2 * R + 120 + len(ops) * take_interval(slots) // slots      # the ops take a step or more each
+    T = 2 * R + 120 + len(ops) * access_steps(slots)
     xi = np.full(T, 16384, dtype=np.int64); xq = np.zeros(T, dtype=np.int64)
     hi, hq, done, model = check(dut, inits, xi, xq, ops, name=f"swap after the last word, M = {slots}")
     reads = [v for _, kind, _, v in done if kind == "r"]
