@@ -250,6 +250,32 @@ class RegisterFile(wiring.Component):
                      stage[0].addr.eq(bus.addr), stage[0].data.eq(bus.w_data)]
         m.d.sync += [stage[k].eq(stage[k - 1]) for k in range(1, depth + 1)]
 
+        # Each group of channels (a pipeline's) decodes the access from a
+        # copy of the stages of its own, from stage 1 on (kept apart from the
+        # others, so that synthesis does not merge them back): one copy read
+        # by every group's decoders fanned out to all of the engine's
+        # register logic, and from it the read-back's hits, a RAM's write
+        # enable, the SWAP check's hit flags and the landing data were the
+        # latest paths of the 64-channel build (6.7-7.7 ns, most of it
+        # routing). The global registers decode from ``stage``.
+        unit_of = {ch: g for g, members in enumerate(self._groups) for ch in members}
+        chains = {None: stage}
+        for g in range(len(self._groups)):
+            chains[g] = [stage[0], op(kept_register(m, platform, stage[0].as_value(), f"op1_g{g}", reset=True))]
+
+        def at(unit, k):
+            """Stage k of the access as group ``unit`` (None: the global
+            registers) sees it; a group's stages are made as needed."""
+            chain = chains[unit]
+            while len(chain) <= k:
+                nxt = Signal(op, name=f"op{len(chain)}_g{unit}")
+                m.d.sync += nxt.eq(chain[-1])
+                chain.append(nxt)
+            return chain[k]
+
+        def tag_of(unit):
+            return "glob" if unit is None else f"g{unit}"
+
         in_ram = {(reg, field) for reg, field in RAM_FIELDS.values()}
         storage = {}          # (reg name, channel, field name) -> Signal; RAM_FIELDS are in RAMs
         for r in rmap.registers:
@@ -266,15 +292,14 @@ class RegisterFile(wiring.Component):
         # one by synthesis). Landing is register to register; the address
         # compares and the clamps' comparators are a clock earlier still, in
         # ``decoded`` (the 10-channel build's critical path was op -> compare
-        # -> clamp -> LENGTH). Nothing but stage 1 reads the bus straight
-        # from the host bridge's registers.
+        # -> clamp -> LENGTH). Each group decodes from its own stages
+        # (``at``).
         wd = WRITE_STAGING
-        before = stage[wd - 1]
 
-        def decoded(fn, shape, name):
+        def decoded(fn, shape, name, unit):
             """fn(op) of the access in stage wd - 1, registered from stage wd - 2."""
-            s = Signal(shape, name=name)
-            m.d.sync += s.eq(fn(stage[wd - 2]))
+            s = Signal(shape, name=f"{name}_{tag_of(unit)}")
+            m.d.sync += s.eq(fn(at(unit, wd - 2)))
             return s
 
         def landing(value, shape, name, *, data=False):
@@ -294,18 +319,18 @@ class RegisterFile(wiring.Component):
         # register (n10_20_200's worst path, op1 -> hit_phase_inc7, 7.0 ns).
         decoded_bits = {}
 
-        def decoded_bit(key, fn):
-            if key not in decoded_bits:
-                decoded_bits[key] = decoded(fn, 1, f"pre_{key}")
-            return decoded_bits[key]
+        def decoded_bit(key, fn, unit):
+            if (unit, key) not in decoded_bits:
+                decoded_bits[(unit, key)] = decoded(fn, 1, f"pre_{key}", unit)
+            return decoded_bits[(unit, key)]
 
-        def writes(address):
+        def writes(address, unit):
             low, high = address & ((1 << PREDECODE_BITS) - 1), address >> PREDECODE_BITS
-            return (decoded_bit("write", lambda op: op.valid & op.write)
-                    & decoded_bit(f"lo{low}", lambda op: op.addr[:PREDECODE_BITS] == low)
-                    & decoded_bit(f"hi{high}", lambda op: op.addr[PREDECODE_BITS:] == high))
+            return (decoded_bit("write", lambda op: op.valid & op.write, unit)
+                    & decoded_bit(f"lo{low}", lambda op: op.addr[:PREDECODE_BITS] == low, unit)
+                    & decoded_bit(f"hi{high}", lambda op: op.addr[PREDECODE_BITS:] == high, unit))
 
-        def clamped_value(reg_name, f):
+        def clamped_value(reg_name, f, unit):
             """The field's value from the access in stage wd - 1, clamped: the
             comparisons a clock earlier, in ``decoded`` registers, so that the
             clock into the landing register holds only the selection (one
@@ -314,11 +339,11 @@ class RegisterFile(wiring.Component):
             lo, hi = f.clamp
             field = lambda op: op.data[f.lsb:f.lsb + f.width]
             name = f"{reg_name.lower()}_{f.name}"
-            v = field(before)
+            v = field(at(unit, wd - 1))
             if hi < (1 << f.width) - 1:
-                v = Mux(decoded(lambda op: field(op) > hi, 1, f"above_{name}"), hi, v)
+                v = Mux(decoded(lambda op: field(op) > hi, 1, f"above_{name}", unit), hi, v)
             if lo > 0:
-                v = Mux(decoded(lambda op: field(op) < lo, 1, f"below_{name}"), lo, v)
+                v = Mux(decoded(lambda op: field(op) < lo, 1, f"below_{name}", unit), lo, v)
             return v
 
         apply_addr = rmap.reg("APPLY").addr
@@ -327,27 +352,27 @@ class RegisterFile(wiring.Component):
         land_field = {}       # (register address, field name) -> landing value
         land_apply = {}       # channel (None: global) -> APPLY (bit 0) landing
         next_apply = None     # the global APPLY landing's input: APPLY lands in the next clock
-        clamped = {}          # field -> its clamped value, in the clock before landing
         group_hit = {}        # group (None: global) -> "the access in stage wd - 1 writes it or APPLY"
         units = [(None, [r for r in rmap.registers if r.channel is None])]
         units += [(g, [r for r in rmap.registers if r.channel in members])
                   for g, members in enumerate(self._groups)]
         for g, regs in units:
-            tag = "glob" if g is None else f"g{g}"
+            tag = tag_of(g)
             lo_addr, hi_addr = min(r.addr for r in regs), max(r.addr for r in regs)
 
             def in_group(op):
                 return op.valid & op.write & (_within(op.addr, lo_addr, hi_addr) | (op.addr == apply_addr))
-            hit = group_hit[g] = decoded(in_group, 1, f"hit_{tag}")
+            hit = group_hit[g] = decoded(in_group, 1, "hit", g)
+            before = at(g, wd - 1)
             dcopy = landing(Mux(hit, before.data, 0), 32, f"land_data_{tag}", data=True)
-            ap_in = writes(apply_addr) & before.data[0]
+            ap_in = writes(apply_addr, g) & before.data[0]
             ap = landing(ap_in, 1, f"land_apply_{tag}")
             if g is None:
                 next_apply = ap_in
             group_clamped = {}
             for r in regs:
                 suffix = "" if r.channel is None else str(r.channel)
-                strobe[r.addr] = landing(writes(r.addr), 1, f"w_{r.name.lower()}{suffix}")
+                strobe[r.addr] = landing(writes(r.addr, g), 1, f"w_{r.name.lower()}{suffix}")
                 for f in r.fields:
                     if f.access not in STORED:
                         continue
@@ -355,10 +380,8 @@ class RegisterFile(wiring.Component):
                         land_field[(r.addr, f.name)] = dcopy[f.lsb:f.lsb + f.width]
                         continue
                     key = (r.name, f.name)
-                    if key not in clamped:
-                        clamped[key] = clamped_value(r.name, f)
                     if key not in group_clamped:
-                        group_clamped[key] = landing(Mux(hit, clamped[key], 0), f.width,
+                        group_clamped[key] = landing(Mux(hit, clamped_value(r.name, f, g), 0), f.width,
                                                      f"land_{r.name.lower()}_{f.name}_{tag}", data=True)
                     land_field[(r.addr, f.name)] = group_clamped[key]
             for ch in ([None] if g is None else self._groups[g]):
@@ -419,7 +442,7 @@ class RegisterFile(wiring.Component):
         D = max(2, S)            # the RAMs' depth: no zero-width address at one slot
         slot_bits = (D - 1).bit_length()
         stride_bits = CHANNEL_STRIDE.bit_length() - 1
-        slot_of = [0] * (1 << (len(before.addr) - stride_bits))      # by address >> stride_bits
+        slot_of = [0] * (1 << (len(bus.addr) - stride_bits))      # by address >> stride_bits
         for members in self._groups:
             for s, ch in enumerate(members):
                 slot_of[(CHANNEL_BASE + CHANNEL_STRIDE * ch) >> stride_bits] = s
@@ -436,17 +459,17 @@ class RegisterFile(wiring.Component):
             """The access ``op`` is to the register at ``offset`` of one of ``members``."""
             return _within(op.addr, *ram_range(members)) & (op.addr[:stride_bits] == offset)
 
-        pre_slot = decoded(slot_at, slot_bits, "pre_slot")
-        pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
-                             D, "pre_slot_onehot")
         ram_reads = []         # per group: field name -> (fn(slot) -> the RAM's word, fresh bits, reset values)
         unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
         for g, members in enumerate(self._groups):
             # the group's landing decode: APPLY is in it too, but its offset
             # is no RAM field's, so it writes none
             in_group = group_hit[g]
+            pre_slot = decoded(slot_at, slot_bits, "pre_slot", g)
+            pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
+                                 D, "pre_slot_onehot", g)
             w_slot = landing(Mux(in_group, pre_slot, 0), slot_bits, f"ram_slot_g{g}", data=True)
-            w_onehot = landing(Mux(in_group, pre_onehot, 0), D, f"ram_slot_onehot_g{g}", data=True)
+            w_onehot_in = Mux(in_group, pre_onehot, 0)      # the landing slot, one-hot, a clock ahead
             # the engine's slot counter, and one a slot ahead (both registers)
             r_slot = Signal(range(D), init=S - 1, name=f"ram_rslot_g{g}")
             r_ahead = Signal(range(D), init=0, name=f"ram_rslot_ahead_g{g}")
@@ -455,9 +478,8 @@ class RegisterFile(wiring.Component):
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
                 width = rmap.reg(reg_name, 0).field(field_name).width
-                w_en = landing(in_group & decoded_bit(f"off{offset}",
-                                                      lambda op: op.addr[:stride_bits] == offset),
-                               1, f"ram_{name}_we_g{g}")
+                w_en_in = in_group & decoded_bit(f"off{offset}", lambda op: op.addr[:stride_bits] == offset, g)
+                w_en = landing(w_en_in, 1, f"ram_{name}_we_g{g}")
                 resets = [0] * D
                 for s, ch in enumerate(members):
                     resets[s] = rmap.reg(reg_name, ch).field(field_name).reset
@@ -466,10 +488,14 @@ class RegisterFile(wiring.Component):
                 wp = mem.write_port()
                 land = land_field[(rmap.reg(reg_name, members[0]).addr, field_name)]
                 m.d.comb += [wp.en.eq(w_en), wp.addr.eq(w_slot), wp.data.eq(land)]
+                # the slots unwritten since reset, and the same a clock ahead,
+                # from the landing's inputs (from the landing's registers, the
+                # write enable -> the next fresh bits -> the engine's
+                # use-reset flag was the 64-channel build's worst path, 7.7 ns)
                 fresh = Signal(D, init=(1 << len(members)) - 1, name=f"ram_{name}_fresh_g{g}")
-                fresh_next = Signal(D, name=f"ram_{name}_fresh_next_g{g}")
-                m.d.comb += fresh_next.eq(fresh & ~Mux(w_en, w_onehot, 0))
-                m.d.sync += fresh.eq(fresh_next)
+                fresh_ahead = Signal(D, init=(1 << len(members)) - 1, name=f"ram_{name}_fresh_ahead_g{g}")
+                m.d.sync += [fresh_ahead.eq(fresh_ahead & ~Mux(w_en_in, w_onehot_in, 0)),
+                             fresh.eq(fresh_ahead)]
                 fresh_of[name] = fresh
                 reset_of = Array(Const(v, width) for v in resets)
 
@@ -485,7 +511,7 @@ class RegisterFile(wiring.Component):
                     # the read's clock holds only the RAM and one selection
                     use_reset = Signal(init=len(members) == S, name=f"ram_{name}_use_reset_g{g}")
                     reset_value = Signal(width, init=resets[S - 1], name=f"ram_{name}_reset_g{g}")
-                    m.d.sync += [use_reset.eq(fresh_next.bit_select(r_ahead, 1)),
+                    m.d.sync += [use_reset.eq(fresh_ahead.bit_select(r_ahead, 1)),
                                  reset_value.eq(reset_of[r_ahead]),
                                  self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
             ram_reads.append(reads)
@@ -510,7 +536,7 @@ class RegisterFile(wiring.Component):
         for g, members in enumerate(self._groups):
             m_slot = Signal(slot_bits, name=f"match_slot_g{g}")
             m_hit = Signal(name=f"match_hit_g{g}")
-            src = stage[wd - stages - 1]
+            src = at(g, wd - stages - 1)
             m.d.sync += [m_slot.eq(slot_at(src)), m_hit.eq(ram_register(src, members, ctrl_offset))]
             # each field's RAMs read at a copy of the slot of their own (kept:
             # one register for the 18 LUT RAMs was 3.6-4.4 ns of routing into
@@ -644,7 +670,7 @@ class RegisterFile(wiring.Component):
         ram_words = []
         for g, members in enumerate(self._groups):
             rd_slot = Signal(slot_bits, name=f"rd_slot_g{g}")
-            m.d.sync += rd_slot.eq(slot_at(stage[wd - 1 - early]))
+            m.d.sync += rd_slot.eq(slot_at(at(g, wd - 1 - early)))
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 f = rmap.reg(reg_name, 0).field(field_name)
                 if f.access == "rw":
@@ -655,19 +681,20 @@ class RegisterFile(wiring.Component):
                                                     raw_read(rd_slot)), ("use_reset", "reset", "ram"))]
                     word = Mux(*parts_of)
                     word = landing(word, word.shape(), f"rd_{name}_g{g}")
-                    ram_words.append((f"{name}_g{g}",
+                    ram_words.append((f"{name}_g{g}", g,
                                       lambda op, members=members, offset=offset: ram_register(op, members, offset),
                                       (word.as_unsigned() << f.lsb)[:32]))
         end = self.read_latency - 1
         results = []
         for delay, pick in parts:
-            words = [(f"{r.addr:x}", lambda op, a=r.addr: op.addr == a, word_of(r, pick)) for r in rmap.registers]
-            words = [item for item in words if item[2] is not None]
+            words = [(f"{r.addr:x}", unit_of.get(r.channel), lambda op, a=r.addr: op.addr == a, word_of(r, pick))
+                     for r in rmap.registers]
+            words = [item for item in words if item[3] is not None]
             if delay == wd:
                 words += ram_words
             if not words:
                 continue
-            results.append(self._select(m, stage, delay, words, end))
+            results.append(self._select(m, at, delay, words, end))
         # Each selection is zero unless its access is a read (``_select``), so
         # the answer is their OR: the stage's flags gating all 32 bits here
         # were the latest path of a two-pipeline build (6.3 ns, 4.9 routing).
@@ -675,29 +702,30 @@ class RegisterFile(wiring.Component):
                      bus.r_data.eq(_or(results) if results else 0)]
         return m
 
-    def _select(self, m, stage, delay, words, end):
+    def _select(self, m, at, delay, words, end):
         """The word of the register a read addresses, sampled at stage
         ``delay``: groups of registers selected into registers at that stage,
         then the group, registered, then delayed to stage ``end``. 0 when the
-        access is no read or addresses none of ``words`` ((name, fn(op): the
-        access is of this word, word) each)."""
-        st = stage[delay]
+        access is no read or addresses none of ``words`` ((name, unit, fn(op):
+        the access is of this word, word) each; ``at(unit, k)``: stage k as
+        the word's group of channels sees it)."""
         group = 8            # 16 words ORed into a register: 6.5 ns at 16 channels, 100 MS/s
         groups = [words[k:k + group] for k in range(0, len(words), group)]
         firsts = []
         for g, items in enumerate(groups):
             v = Signal(32, name=f"rd{delay}_{g}")
             sel = Const(0, 32)
-            for name, reads, w in items:
+            for name, unit, reads, w in items:
                 # the address compare a clock earlier, in a register (the
                 # compare and the selection in one clock were the one-pipeline
                 # build's worst path at 7.8 ns)
                 hit = Signal(name=f"rd{delay}_hit_{name}")
                 if delay >= 1:
-                    op = stage[delay - 1]
+                    op = at(unit, delay - 1)
                     m.d.sync += hit.eq(reads(op) & op.valid & ~op.write)
                 else:
-                    m.d.comb += hit.eq(reads(st) & st.valid & ~st.write)
+                    op = at(None, 0)
+                    m.d.comb += hit.eq(reads(op) & op.valid & ~op.write)
                 sel = sel | Mux(hit, w, 0)
             m.d.sync += v.eq(sel)
             firsts.append(v)

@@ -9,7 +9,8 @@ from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
-from .channel_pipeline import ChannelPipeline, SlotInit, fetch_tag_layout, accept_clock, COMMON_OUT_CYCLES
+from .channel_pipeline import (ChannelPipeline, SlotInit, fetch_tag_layout, accept_clock, COMMON_OUT_CYCLES,
+                               MIRROR_LAG)
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
 from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode
@@ -217,11 +218,11 @@ class WindFarmReplay(wiring.Component):
         # Writes land in the clock before the pipelines' period start (the
         # accepting clock, top slot 0): taken WRITE_STAGING clocks earlier. A
         # read samples the slots' mirrors after the last slot's update of the
-        # step before (the update's end V + b0 after its visit), the sticky
-        # overflow after that step's saturation.
+        # step before (the update's end V + b0 after its visit, its mirrors
+        # MIRROR_LAG later), the sticky overflow after that step's saturation.
         V = visit_cycles(M)
         m.submodules.regs = regs = RegisterFile(
-            self._rmap, mirror_delay=V + b0 + 1 + Sw, status_delay=K + Sw,
+            self._rmap, mirror_delay=V + b0 + MIRROR_LAG + 1 + Sw, status_delay=K + Sw,
             groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)], slots=M)
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
         # ``take`` (the bus's ready) from a register: it reaches the host bridge's

@@ -1,5 +1,6 @@
 """WindFarmReplay in the Amaranth simulator against the bit-exact model."""
 
+import copy
 import itertools
 import warnings
 
@@ -234,6 +235,69 @@ def test_a_read_right_after_a_write_returns_the_value_written(slots):
         assert (w, r, wa) == ("w", "r", ra)
         if wa in [a(name, l) for name in ("GAIN", "BASE") for l in range(N)]:
             assert rv == wv, f"register {wa:#x}: wrote {wv:#x}, read {rv:#x}"
+
+
+@pytest.mark.parametrize("slots, l", [(1, 0), (2, 1), (3, 2), (2, 0), (3, 0)])
+def test_a_read_sees_the_switches_of_the_steps_before_it_and_none_after(slots, l):
+    """CTRL.swap and CTRL.bank read back as the model has them between the
+    same two steps, also when a switch (a pending SWAP completing at a wrap)
+    comes in the step just before the read or in the read's own step: the
+    read-back samples the slots' mirrors after the last slot's update of
+    the step before and before the first slot's update of the next. Rounds
+    of a SWAP of channel l (slot l) to a 9-word stream and CTRL reads at
+    every access until the next SWAP; the wrap moves against the reads from
+    round to round. The test asserts that reads came right after a switch
+    of the last slot, or right before one of the first (else it proves
+    little)."""
+    rng = np.random.default_rng(70 + slots + l)
+    streams = [[int(w) for w in pack_iq(rng.integers(-32768, 32768, 9), rng.integers(-32768, 32768, 9))]
+               for _ in range(2)]
+    inc = (1 << 32) - 1                                 # a word a step: a wrap every 9 steps
+    inits = [ChannelInit(tuple(streams[0]), inc, 1 << 16, 0, True, 0) if ch == l else ChannelInit()
+             for ch in range(slots)]
+    dut = WindFarmReplay(slots, slots=slots, init=inits, **KW)
+    a = dut.register_map.addr
+    R = dut.contract.refill_samples
+    # Round r starts at step k (the bus idle by then); the wrap after the
+    # SWAP's landing moves against the reads by the same amount modulo 9
+    # from round to round, one amount for rounds 0-8 and another for 9-17:
+    # one of the two is prime to 3, and then the rounds meet every position.
+    steps = access_steps(slots)
+    ops, k = [], R
+    for r in range(18):
+        base, words = 32 + 16 * (r % 2), streams[(r + 1) % 2]
+        ops += [(k, "w", a("STREAM_ADDR"), base)] + [(k, "w", a("STREAM_DATA"), w) for w in words]
+        ops += [(k, "w", a("BASE", l), base), (k, "w", a("LENGTH", l), 9),
+                (k, "w", a("CRC", l), stream_crc32(words)), (k, "w", a("CTRL", l), CTRL_ENABLE | CTRL_SWAP)]
+        ops += [(k, "r", a("CTRL", l), 0)] * 10
+        k += steps * (30 + (1 if r < 9 else 2))
+    T = k + 10
+    xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
+    _, _, done, _ = check(dut, inits, xi, xq, ops, name=f"switch and read, M = {slots}, slot {l}")
+    assert len(done) == len(ops)
+    # the model's CTRL at each read's step k, at k - 1 when no access lands
+    # between, and at k + 1 (no CTRL write follows a read here): a switch
+    # in step k - 1, in step k
+    model = ReplayModel(dut.contract, inits)
+    pos, after, before = 0, 0, 0
+    for k, kind, ad, value in done:
+        if kind == "r" and k - 1 >= pos:
+            model.run(xi[pos:k - 1], xq[pos:k - 1])
+            earlier = model.read(ad)
+            model.run(xi[k - 1:k], xq[k - 1:k])
+            pos = k
+            peek = copy.deepcopy(model)
+            peek.run(xi[k:k + 1], xq[k:k + 1])
+            after += model.read(ad) != earlier
+            before += peek.read(ad) != model.read(ad)
+        else:
+            model.run(xi[pos:k], xq[pos:k])
+            pos = k
+            model.write(ad, value) if kind == "w" else model.read(ad)
+    if l == slots - 1:
+        assert after >= 2, f"{after} reads came right after a switch of the last slot: the test proves little"
+    if l == 0:
+        assert before >= 2, f"{before} reads came right before a switch of the first slot: the test proves little"
 
 
 @pytest.mark.parametrize("slots", [1, 2, 3, 4, 5, 7, 8, 10])
