@@ -195,7 +195,7 @@ class ChannelPipeline(wiring.Component):
         after the period starts.
     offer : In(1)
         The fetch scan offers this pipeline's slots a fetch in this period
-        (stable from the period's second clock for M clocks).
+        (stable from the period's third clock for M clocks).
     req_valid : Out(1), req_addr : Out(pool address), req_tag : Out(fetch_tag_layout)
         A fetch request (registered).
     fill_en : In(1), fill_tag : In(fetch_tag_layout), fill_data : In(32)
@@ -344,7 +344,7 @@ class ChannelPipeline(wiring.Component):
                 m.d.sync += count.eq(count + 1)
         step_v = _delay(m, step_h, V - 1 - A, "step_v")
         nidx_v = _delay(m, nidx_h, V - 1 - A, "nidx_v")
-        offer = _delay(m, self.offer, V, "offer")
+        offer = _delay(m, self.offer, V - 1, "offer")
 
         # ---- register read: slot rslot's registers, registered ---------------
         # The flip-flop part: V = 1, one multiplexer; V = 2, groups of 4 slots
