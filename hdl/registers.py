@@ -227,7 +227,7 @@ class RegisterFile(wiring.Component):
         return self._rmap
 
     #: Registered levels of the read-back multiplexer behind the sampling points.
-    SELECT_LEVELS = 2
+    SELECT_LEVELS = 3
 
     @property
     def read_latency(self) -> int:
@@ -704,35 +704,47 @@ class RegisterFile(wiring.Component):
 
     def _select(self, m, at, delay, words, end):
         """The word of the register a read addresses, sampled at stage
-        ``delay``: groups of registers selected into registers at that stage,
-        then the group, registered, then delayed to stage ``end``. 0 when the
-        access is no read or addresses none of ``words`` ((name, unit, fn(op):
-        the access is of this word, word) each; ``at(unit, k)``: stage k as
-        the word's group of channels sees it)."""
+        ``delay``: per group of channels (and the global registers), its
+        registers selected in groups into registers at that stage, then
+        ORed into a register; the groups' words ORed into a register, then
+        delayed to stage ``end`` (SELECT_LEVELS registered levels). 0 when
+        the access is no read or addresses none of ``words`` ((name, unit,
+        fn(op): the access is of this word, word) each; ``at(unit, k)``:
+        stage k as the word's group of channels sees it)."""
         group = 8            # 16 words ORed into a register: 6.5 ns at 16 channels, 100 MS/s
-        groups = [words[k:k + group] for k in range(0, len(words), group)]
-        firsts = []
-        for g, items in enumerate(groups):
-            v = Signal(32, name=f"rd{delay}_{g}")
-            sel = Const(0, 32)
-            for name, unit, reads, w in items:
-                # the address compare a clock earlier, in a register (the
-                # compare and the selection in one clock were the one-pipeline
-                # build's worst path at 7.8 ns)
-                hit = Signal(name=f"rd{delay}_hit_{name}")
-                if delay >= 1:
-                    op = at(unit, delay - 1)
-                    m.d.sync += hit.eq(reads(op) & op.valid & ~op.write)
-                else:
-                    op = at(None, 0)
-                    m.d.comb += hit.eq(reads(op) & op.valid & ~op.write)
-                sel = sel | Mux(hit, w, 0)
-            m.d.sync += v.eq(sel)
-            firsts.append(v)
-        second = Signal(32, name=f"rd{delay}_all")
-        m.d.sync += second.eq(_or(firsts))
-        out = second
-        for k in range(delay + 2, end):
+        by_unit = {}
+        for item in words:
+            by_unit.setdefault(item[1], []).append(item)
+        per_unit = []
+        for unit, unit_words in by_unit.items():
+            tag = "glob" if unit is None else f"g{unit}"
+            firsts = []
+            for g in range(0, len(unit_words), group):
+                v = Signal(32, name=f"rd{delay}_{tag}_{g // group}")
+                sel = Const(0, 32)
+                for name, _, reads, w in unit_words[g:g + group]:
+                    # the address compare a clock earlier, in a register (the
+                    # compare and the selection in one clock were the
+                    # one-pipeline build's worst path at 7.8 ns)
+                    hit = Signal(name=f"rd{delay}_hit_{name}")
+                    if delay >= 1:
+                        op = at(unit, delay - 1)
+                        m.d.sync += hit.eq(reads(op) & op.valid & ~op.write)
+                    else:
+                        op = at(None, 0)
+                        m.d.comb += hit.eq(reads(op) & op.valid & ~op.write)
+                    sel = sel | Mux(hit, w, 0)
+                m.d.sync += v.eq(sel)
+                firsts.append(v)
+            # a group's words, then all groups' (all first-level registers
+            # ORed into one was a latest path of the 64-channel build, about
+            # 75 of them, 6.3 ns)
+            u = Signal(32, name=f"rd{delay}_{tag}")
+            m.d.sync += u.eq(_or(firsts))
+            per_unit.append(u)
+        out = Signal(32, name=f"rd{delay}_all")
+        m.d.sync += out.eq(_or(per_unit))
+        for k in range(delay + self.SELECT_LEVELS, end):
             nxt = Signal(32, name=f"rd{delay}_d{k}")
             m.d.sync += nxt.eq(out)
             out = nxt
