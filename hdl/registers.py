@@ -273,9 +273,6 @@ class RegisterFile(wiring.Component):
                 chain.append(nxt)
             return chain[k]
 
-        def tag_of(unit):
-            return "glob" if unit is None else f"g{unit}"
-
         in_ram = {(reg, field) for reg, field in RAM_FIELDS.values()}
         storage = {}          # (reg name, channel, field name) -> Signal; RAM_FIELDS are in RAMs
         for r in rmap.registers:
@@ -298,7 +295,7 @@ class RegisterFile(wiring.Component):
 
         def decoded(fn, shape, name, unit):
             """fn(op) of the access in stage wd - 1, registered from stage wd - 2."""
-            s = Signal(shape, name=f"{name}_{tag_of(unit)}")
+            s = Signal(shape, name=f"{name}_{_unit_tag(unit)}")
             m.d.sync += s.eq(fn(at(unit, wd - 2)))
             return s
 
@@ -357,7 +354,7 @@ class RegisterFile(wiring.Component):
         units += [(g, [r for r in rmap.registers if r.channel in members])
                   for g, members in enumerate(self._groups)]
         for g, regs in units:
-            tag = tag_of(g)
+            tag = _unit_tag(g)
             lo_addr, hi_addr = min(r.addr for r in regs), max(r.addr for r in regs)
 
             def in_group(op):
@@ -717,7 +714,7 @@ class RegisterFile(wiring.Component):
             by_unit.setdefault(item[1], []).append(item)
         per_unit = []
         for unit, unit_words in by_unit.items():
-            tag = "glob" if unit is None else f"g{unit}"
+            tag = _unit_tag(unit)
             firsts = []
             for g in range(0, len(unit_words), group):
                 v = Signal(32, name=f"rd{delay}_{tag}_{g // group}")
@@ -749,6 +746,11 @@ class RegisterFile(wiring.Component):
             m.d.sync += nxt.eq(out)
             out = nxt
         return out
+
+
+def _unit_tag(unit):
+    """The name tag of a group of channels' signals (None: the global registers')."""
+    return "glob" if unit is None else f"g{unit}"
 
 
 def _within(addr, lo, hi):
