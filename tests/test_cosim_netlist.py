@@ -41,18 +41,20 @@ def test_netlist_top(kind, seed):
 
 
 #: A register mode flipped in one primitive of a netlist copy (cell, key, right, wrong, which
-#: instance having it): the output register of the common delay line's DP16KD holding bits 12
-#: and 13 of its words (8192 x 2 slices, one group each). The stream pool's DP16KD holding bit 13 was the case
-#: until the pool read every clock: its bank's address is held between reads of that bank, so a
-#: slice one clock early still returned the same word in this farm (only two fetches of one bank
-#: in consecutive clocks would show it). Each case costs a Verilator build of the whole netlist
+#: instance having it), under the random register sequences (channels at different taps): the
+#: output register of the window's DP16KD holding bits 9 to 17 of its words, read at each
+#: slot's tap, a different address each clock. The common delay line's slice was the case until
+#: the line's step count moved a clock after the accept (its read address is now held in the
+#: clock before and the clock of the read that matters, so a slice one clock early returns the
+#: same word); the stream pool's until the pool read every clock (a bank's address is held
+#: between reads of that bank). Each case costs a Verilator build of the whole netlist
 #: (about 3 minutes of CI); the sign settings of MULT18X18D are checked against hand-worked
 #: products on the cell model itself (tests/test_ecp5_models.py, ``mult_sign_modes``), so one
 #: case shows that this cosimulation sees a wrong primitive setting. (A flipped SIGNEDA of the
 #: real-part gain multiplier, the fifth MULT18X18D, was also caught here; a sign of the first
 #: complex-product multiplier was not: in this short farm its operands stay of one sign.)
 WRONG_SETTINGS = {
-    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "common.mem_bits12.bram0"),
+    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "pipe0.window.mem_bits9.bram0"),
 }
 
 
@@ -61,4 +63,4 @@ WRONG_SETTINGS = {
 def test_wrong_primitive_setting_fails(setting):
     cell, key, old, new, which = WRONG_SETTINGS[setting]
     with pytest.raises(runner.SimulationFailed, match=r"mismatch|differ"):
-        _run("farm", 14, netlist_edit=lambda text: edit_cell(text, cell, key, old, new, which), name=f"-{setting}")
+        _run("random", 16, netlist_edit=lambda text: edit_cell(text, cell, key, old, new, which), name=f"-{setting}")
