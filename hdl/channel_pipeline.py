@@ -595,7 +595,8 @@ class ChannelPipeline(wiring.Component):
         # clock after it (MIRROR_LAG: from the update's logic into every
         # slot's mirror was 6.3-6.4 ns at 64 channels).
         done = Signal(2, name="mirror_update")
-        m.d.sync += done.eq(Cat(nxt.pending, nxt.bank))
+        m.d.comb += done.eq(Cat(nxt.pending, nxt.bank))
+        done = _delay(m, done, MIRROR_LAG, "mirror_update")
         bslot = _delay(m, vslot, self.update_stage + MIRROR_LAG, "bslot")
         for s in range(M):
             with m.If(bslot == s):
