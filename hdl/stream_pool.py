@@ -131,7 +131,6 @@ class StreamPool(wiring.Component):
         gaps spread along the row (the windows': :meth:`free_blocks`)."""
         BW = self._bank_words
         bank_bits = (BW - 1).bit_length()
-        W = 2 * STREAM_WIDTH
         r_bank, w_bank = self.r_addr[bank_bits:], self.w_addr[bank_bits:]
         # clocks from a read to its word at the groups' RAM outputs (bank
         # register, group copy, the RAM's address register, read, output
