@@ -747,7 +747,13 @@ class ChannelPipeline(wiring.Component):
         read_at = WORD_CYCLES - win.latency - 1
         write_at = V + read_at + 1                    # clocks after the period start, at the RAM
         wen = _delay(m, astart & self.accept, write_at - 1 - A, "win_wen")
-        wdata = _delay(m, self.win_data, write_at - 1 - COMMON_OUT_CYCLES, "win_wdata", data=True)
+        # c[n] through registers of the pipeline's own (kept): every pipeline
+        # delays the same common-line word, so plain registers were one chain
+        # to Yosys, feeding all the windows' write registers across the device
+        # (6.2-6.7 ns at 64 channels)
+        wdata = self.win_data
+        for k in range(write_at - 1 - COMMON_OUT_CYCLES):
+            wdata = kept_register(m, platform, wdata, f"win_wdata_d{k + 1}")
         windex = _delay(m, nidx_h, write_at - 2 - A, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
                      win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex", data=True)),

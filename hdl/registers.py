@@ -544,9 +544,14 @@ class RegisterFile(wiring.Component):
             raw = {name: landing(word, len(word), f"match_{name}_g{g}", data=True)
                    for name, word in raw.items()}
             m_hit = landing(m_hit, 1, f"match_hit_r_g{g}")
-            parts = Cat(equal_parts(run_start, raw["base"]),
-                        equal_parts(run_count, raw["length"]),
-                        equal_parts(~run_crc, raw["crc"]))
+            # the run in registers of the group's own (kept), a clock before
+            # the comparison: the run's one place into every group's
+            # comparisons was a latest path at 64 channels (6.1-6.5 ns). The
+            # CRC is final a clock before the copy (TAKE_SPACING).
+            run = kept_register(m, platform, Cat(run_start, run_count, ~run_crc), f"match_run_g{g}")
+            parts = Cat(equal_parts(run[:len(run_start)], raw["base"]),
+                        equal_parts(run[len(run_start):-32], raw["length"]),
+                        equal_parts(run[-32:], raw["crc"]))
             parts = landing(parts, len(parts), f"match_parts_g{g}")
             m_hit = landing(m_hit, 1, f"match_hit_q_g{g}")
             group_match.append(landing(m_hit & parts.all(), 1, f"match_g{g}"))

@@ -180,8 +180,10 @@ class WindFarmReplay(wiring.Component):
         slot = self.slot
         if M > 1:
             m.d.sync += slot.eq(Mux(slot == M - 1, 0, slot + 1))
-        start = Signal()
-        m.d.comb += start.eq(slot == 0)
+        # slot == 0, from a register: the compare drove the enables of the
+        # fetch scan's ring, spread over the device (6.0-6.4 ns at 64 channels)
+        start = Signal(init=1)
+        m.d.sync += start.eq(slot == M - 1)
         F = self.fifo_depth
         in_flight = Signal(range(F + 1))
         accept = Signal()
@@ -264,8 +266,9 @@ class WindFarmReplay(wiring.Component):
 
         # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
         # x[n] is handed to the line in the accepting clock and reaches the RAM
-        # in the pipelines' period start; the read for step n is asked in the
-        # accepting clock too (the step count before its increment, the common
+        # in the pipelines' period start (from M = 2 both a clock later,
+        # below); the read for step n is asked in the accepting clock (the
+        # step count before its increment, the common
         # delay that applies from the period start), so that c[n] is out
         # COMMON_OUT_CYCLES after the period start. The line's block RAMs are
         # spread over the rows: each has its own write registers (one register
@@ -299,13 +302,20 @@ class WindFarmReplay(wiring.Component):
         # a register of its own beside it: the next accept is M clocks later,
         # when the count is up to date (``ready`` -> ``accept`` -> the count's
         # enable, from the input's pins to the line's RAMs, was the 64-channel
-        # build's latest path, 7.4 ns, 6.0 of it one route).
+        # build's latest path, 7.4 ns, 6.0 of it one route). The write goes
+        # with it, x[n] from a register (``ready`` -> ``accept`` -> the
+        # groups' write enables was then the latest, 6.4 ns): it reaches the
+        # RAM a clock after the period start, still M - 1 >= 1 clocks before
+        # the read for step n + 1 addresses it.
         cnt = Signal(range(c.common_depth))
-        counted = accept if M == 1 else kept_register(m, platform, accept, "common_accept", reset=True)
-        with m.If(counted):
+        x = self.i.payload.as_value()
+        written = accept
+        if M > 1:
+            written = kept_register(m, platform, accept, "common_accept", reset=True)
+            x = kept_register(m, platform, x, "common_x")
+        with m.If(written):
             m.d.sync += cnt.eq(cnt + 1)
-        m.d.comb += [common.w_en.eq(accept), common.w_index.eq(cnt),
-                     common.w_data.eq(self.i.payload.as_value()),
+        m.d.comb += [common.w_en.eq(written), common.w_index.eq(cnt), common.w_data.eq(x),
                      common.r_index.eq(cnt), common.r_delay.eq(regs.common_delay_next)]
 
         # ---- the pool and the fetch scan -----------------------------------------

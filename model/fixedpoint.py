@@ -398,8 +398,8 @@ def visit_cycles(slots: int) -> int:
 WRITE_STAGING = 5
 #: Fewest clocks between two accesses taken from the bus: a stream word's
 #: CRC (a clock that loads the word, then a byte a clock) is complete before
-#: the SWAP check of the next access compares it, two clocks before that
-#: one lands.
+#: the SWAP check of the next access copies it, three clocks before that
+#: one lands (each group compares its copy a clock later).
 TAKE_SPACING = 8
 
 
