@@ -23,8 +23,9 @@ __all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "accept_clock", "C
            "MIRROR_LAG"]
 
 #: Clocks from the period start to the common line's c[n] on ``win_data``
-#: (the top asks the line's read for step n in the accepting clock).
-COMMON_OUT_CYCLES = 3
+#: (the top asks the line's read for step n in the accepting clock and
+#: registers the line's word once, beside its block RAMs, for all pipelines).
+COMMON_OUT_CYCLES = 4
 #: Clocks from a slot's completed update to its pending/bank mirrors.
 MIRROR_LAG = 1
 
@@ -698,10 +699,13 @@ class ChannelPipeline(wiring.Component):
             b2 = cache_read(caches[1], st.cpos + 1, "word_b", step_read) if interp == "linear" else a2
         f2 = _delay(m, f_op, 2, "word_f", data=True)
         mute = _delay(m, mute_out, WORD_CYCLES - 1, "word_mute")        # beside the word's last register
-        word = Signal(IQ(STREAM_WIDTH), name="word", reset_less=True)
+        # the word's last stage ends in the complex multiplier's operand
+        # registers (a copy beside each multiplier), so ``word`` is the value
+        # they take, a clock before the word is in its registers
+        word = Signal(IQ(STREAM_WIDTH), name="word")
         if interp == "hold":
             # the word itself, as late as the interpolated one would be
-            m.d.sync += word.eq(Mux(mute, 0, _delay(m, a2, WORD_CYCLES - 3, "word_hold", data=True)))
+            m.d.comb += word.eq(Mux(mute, 0, _delay(m, a2, WORD_CYCLES - 3, "word_hold", data=True)))
         else:
             f3 = _delay(m, f2, 1, "word_f3", data=True)
             for part in ("re", "im"):
@@ -716,21 +720,22 @@ class ChannelPipeline(wiring.Component):
                 # zero low bits), so the sum and the rounding are one adder
                 a6 = _delay(m, getattr(a2, part), WORD_CYCLES - 3, f"word_a6_{part}", data=True)
                 a6r = Cat(Const(1 << (INTERP_FRAC_BITS - 1), INTERP_FRAC_BITS), a6).as_signed()
-                m.d.sync += getattr(word, part).eq(Mux(mute, 0, (a6r + prod) >> INTERP_FRAC_BITS))
+                m.d.comb += getattr(word, part).eq(Mux(mute, 0, (a6r + prod) >> INTERP_FRAC_BITS))
             # operands (address, word), difference, multiplier in and out, product, sum
             assert 2 + 1 + 2 + 1 + 1 == WORD_CYCLES
 
         # ---- the FIR's serial MAC: one tap per visit of a slot -------------------
         if fir:
-            self._elaborate_mac(m, st, caches[0], cache_read, mac_wr, mac_dest, mac_val)
+            self._elaborate_mac(m, platform, st, caches[0], cache_read, mac_wr, mac_dest, mac_val)
         if checks:
             late = Cat(*[chk & ~arrived.bit_select(addr, 1) for addr, chk in checks]).any()
             m.d.sync += self.underflow.eq(late)
 
         # ---- the window: written once per step, read at each slot's tap ---------
         # A slot's tap is read WORD_CYCLES - latency - 1 clocks after its visit
-        # and its sample registered in fabric, so that it is out with the word:
-        # the RAM's output register went straight into the multipliers' input
+        # and its sample registered in fabric (the complex multiplier's operand
+        # registers), so that it is out with the word: the RAM's output
+        # register went straight into the multipliers' input
         # registers, the latest path of a two-pipeline build (7.9 ns, 6.9 of
         # it routing, docs/bitstream.md). c[n] comes from the common line
         # COMMON_OUT_CYCLES after the period start and reaches the RAM just
@@ -745,7 +750,10 @@ class ChannelPipeline(wiring.Component):
             group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG), sites=self._window_sites)
         assert win.depth == W
         read_at = WORD_CYCLES - win.latency - 1
-        write_at = V + read_at + 1                    # clocks after the period start, at the RAM
+        # From M = 4 the write comes up to two clocks later, still a clock
+        # before step n + 1 reads c[n] at tap 0: more registers on c[n]'s
+        # way from the common line to the window.
+        write_at = V + read_at + 1 + min(2, max(0, M - 3))    # clocks after the period start, at the RAM
         wen = _delay(m, astart & self.accept, write_at - 1 - A, "win_wen")
         # c[n] through registers of the pipeline's own (kept): every pipeline
         # delays the same common-line word, so plain registers were one chain
@@ -760,29 +768,36 @@ class ChannelPipeline(wiring.Component):
                      win.r_delay.eq(_delay(m, rg.tap, read_at, "win_rdelay", data=True))]
 
         # ---- complex product, gain, slot accumulator -----------------------------
-        m.submodules.cmult = cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form)
-        tdata = Signal(IQ(INPUT_WIDTH), name="tap_sample", reset_less=True)
-        m.d.sync += tdata.eq(win.o)
-        m.d.comb += [cm.en.eq(1), cm.a.eq(tdata), cm.b.eq(word)]
+        # The tap's sample and the word into the multiplier's operand
+        # registers, a copy for each of its multipliers (``operand_registers``).
+        m.submodules.cmult = cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form,
+                                                    operand_registers=True)
+        m.d.comb += [cm.en.eq(1), cm.a.eq(win.o), cm.b.eq(word)]
         geff = Signal(rg.gain.shape(), name="geff")
         m.d.comb += geff.eq(Mux(rg.enable, rg.gain, 0))
-        g = _delay(m, geff, WORD_CYCLES + cm.latency, "gain", data=True)
+        g = _delay(m, geff, WORD_CYCLES - 1 + cm.latency, "gain", data=True)
         q = Signal(IQ(SCALED_WIDTH), name="q", reset_less=True)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(cm.o_width, len(geff) + 1, input_reg=True)
             m.submodules[f"gain_mul_{part}"] = mul
-            m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(cm.o, part)), mul.b.eq(g)]
+            # the gain's last register a copy for each multiplier (kept)
+            # the product again in a register before the multiplier: the
+            # rounding's register sits with its adder, and from there into the
+            # multiplier was the latest path of a 16-channel build (6.9 ns,
+            # 6.3 of it one route)
+            m.d.comb += [mul.en.eq(1), mul.a.eq(_delay(m, getattr(cm.o, part), 1, f"gain_a_{part}", data=True)),
+                         mul.b.eq(kept_register(m, platform, g, f"gain_{part}"))]
             prod = _delay(m, mul.o, 1, f"gain_prod_{part}", data=True)      # in fabric, next to the adder
             m.d.sync += getattr(q, part).eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
-        assert 2 + 1 + 1 == GAIN_CYCLES
-        qslot = _delay(m, vslot, WORD_CYCLES + cm.latency + GAIN_CYCLES, "qslot")
+        assert 1 + 2 + 1 + 1 == GAIN_CYCLES
+        qslot = _delay(m, vslot, WORD_CYCLES - 1 + cm.latency + GAIN_CYCLES, "qslot")
         first = qslot == 0
         for part in ("re", "im"):
             s_ = getattr(self.sum, part)
             m.d.sync += s_.eq(Mux(first, getattr(q, part), s_ + getattr(q, part)))
         return m
 
-    def _elaborate_mac(self, m, st, cache, cache_read, mac_wr, mac_dest, mac_val):
+    def _elaborate_mac(self, m, platform, st, cache, cache_read, mac_wr, mac_dest, mac_val):
         """The FIR's multiplier-accumulator: a visiting slot with a job in issue
         reads its tap's word (cache) and coefficient (ROM), both through
         registered addresses; the product (again in fabric) is accumulated in
@@ -824,8 +839,8 @@ class ChannelPipeline(wiring.Component):
             m.d.comb += rd.addr.eq(rom_addr)
             m.d.sync += part.eq(rd.data)
             parts.append(part)
-        coef = Signal(signed(FIR_COEF_WIDTH), name="mac_coef", reset_less=True)
-        m.d.sync += coef.eq(Array(parts)[rom_high])
+        # the coefficient in a register for each multiplier (kept)
+        coef = Array(parts)[rom_high]
         word = cache_read(cache, st.rpos, "mac_word", st.issuing, clocks=2)   # beside the ROM's two levels
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
         f0 = Signal(flags, name="mac_f0")
@@ -838,7 +853,8 @@ class ChannelPipeline(wiring.Component):
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
             m.submodules[f"fir_mul_{part}"] = mul
-            m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(word, part)), mul.b.eq(coef)]
+            m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(word, part)),
+                         mul.b.eq(kept_register(m, platform, coef, f"mac_coef_{part}").as_signed())]
             prod = Signal(signed(FIR_ACC_WIDTH), name=f"fir_prod_{part}", reset_less=True)
             m.d.sync += prod.eq(mul.o)
             # One accumulator per slot: this slot's, updated, then round the

@@ -268,9 +268,10 @@ class WindFarmReplay(wiring.Component):
         # x[n] is handed to the line in the accepting clock and reaches the RAM
         # in the pipelines' period start (from M = 2 both a clock later,
         # below); the read for step n is asked in the accepting clock (the
-        # step count before its increment, the common
-        # delay that applies from the period start), so that c[n] is out
-        # COMMON_OUT_CYCLES after the period start. The line's block RAMs are
+        # step count before its increment, the common delay that applies from
+        # the period start), so that c[n] is out three clocks after the period
+        # start and in a register for the pipelines at COMMON_OUT_CYCLES (4).
+        # The line's block RAMs are
         # spread over the rows: each has its own write registers (one register
         # fed all 16: 7.7 ns of routing in a two-pipeline build,
         # docs/bitstream.md), and the read address, registered once, is copied
@@ -297,7 +298,12 @@ class WindFarmReplay(wiring.Component):
             2 * INPUT_WIDTH, c.max_delay, COMMON_LAG, group_bits=common_bits,
             sites=[bel for row in reserved for bel in row][:mode[1]] if reserved else None,
             address_copies=min(len(rows), common_groups) if rows else 1)
-        assert common.depth == c.common_depth and common.latency == ACCEPT_LAG + COMMON_OUT_CYCLES
+        assert common.depth == c.common_depth and common.latency + 1 == ACCEPT_LAG + COMMON_OUT_CYCLES
+        # c[n] registered once beside the line's RAMs (their output registers'
+        # clock-to-out and a route to every pipeline in one clock were a latest
+        # path at 64 channels, 6.5-6.9 ns), then copied per pipeline
+        common_word = Signal.like(common.o, name="common_word", reset_less=True)
+        m.d.sync += common_word.eq(common.o)
         # The step count. From M = 2 it counts a clock after the accept, from
         # a register of its own beside it: the next accept is M clocks later,
         # when the count is up to date (``ready`` -> ``accept`` -> the count's
@@ -401,7 +407,7 @@ class WindFarmReplay(wiring.Component):
             # the scan's one place into the pipelines' first offer register
             # was a latest path of the 64-channel build, 6.6 ns)
             offer = kept_register(m, platform, scan[p] & credit, f"offer{p}", reset=True)
-            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common.o), pl.offer.eq(offer),
+            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common_word), pl.offer.eq(offer),
                          pl.values.eq(regs.values[p])]
             for s in range(M):
                 ch = p * M + s

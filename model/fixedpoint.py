@@ -368,9 +368,10 @@ WORD_CYCLES = 7
 #: multipliers' input and output registers, the products in fabric, the
 #: difference/sum, the rounding (3mult: one more for the pre-additions).
 CMULT_CYCLES = {"4mult": 5, "3mult": 6}
-#: Clocks from the rounded product to the rounded gain product (the
-#: multiplier's input and output registers, the product in fabric, the rounding).
-GAIN_CYCLES = 4
+#: Clocks from the rounded product to the rounded gain product (the product
+#: again in a register beside the multiplier, the multiplier's input and
+#: output registers, the product in fabric, the rounding).
+GAIN_CYCLES = 5
 #: Clocks from the visit to the FIR MAC's rounded, saturated U value (the
 #: cache's and the coefficient ROM's registered addresses, the ROM's two
 #: levels with the word beside, multiplier in and out, the product in fabric,

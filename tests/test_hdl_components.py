@@ -35,6 +35,7 @@ def simulate(dut, bench):
     (dict(shift=0), ValueError, r"^Rounding shift must be an integer in \[1, 32\], not 0$"),
     (dict(form="5mult"), ValueError,
      r"^Complex multiplier form must be one of 4mult, 3mult, not '5mult'$"),
+    (dict(operand_registers=1), TypeError, r"^Operand registers must be a bool, not 1$"),
 ])
 def test_cmult_parameters(args, exc, msg):
     with pytest.raises(exc, match=msg):
@@ -276,14 +277,15 @@ def test_iq_layout():
 
 # ---------------------------------------------------------------- cmult
 
+@pytest.mark.parametrize("operand_registers", [False, True])
 @pytest.mark.parametrize("form", ["4mult", "3mult"])
-def test_cmult_random_and_extremes(form):
+def test_cmult_random_and_extremes(form, operand_registers):
     rng = np.random.default_rng(3)
     ext = [-32768, -32767, -1, 0, 1, 32767]
     corner = np.array(list(itertools.product(ext, repeat=4)), dtype=np.int64)
     rand = rng.integers(-32768, 32768, size=(300, 4))
     ops = np.concatenate([corner, rand])
-    dut = ComplexMultiplier(form=form)
+    dut = ComplexMultiplier(form=form, operand_registers=operand_registers)
     assert dut.o_width == 18
     lat = dut.latency
     got = []
