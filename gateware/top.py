@@ -33,7 +33,7 @@ from amaranth.lib.wiring import In, Out
 from ..hdl.iq import IQ
 from ..hdl.ecp5_primitives import kept_register
 from ..hdl.replay_top import WindFarmReplay
-from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG, SDRAM_CLOCK_HZ
+from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG, SDRAM_CLOCK_HZ, reset_slot
 from ..model.hostproto import DEFAULT_BAUD
 from .bridge import UARTBridge
 from .pll import ECP5PLL, pll_params
@@ -200,25 +200,27 @@ class SampleIO(wiring.Component):
         m.submodules.dac_iq = dac_iq = io.DDRBuffer("o", self._dac.iq, o_domain=d)
 
         # The slot counter's value of the clock before, in a register beside
-        # the pins (reset to M - 1, so a clock after the counter's reset to 0):
+        # the pins (reset to ``was``, the counter's value a clock before its
+        # reset value ``reset_slot(M)``):
         # ``in_slot(S)``, "this clock's slot is in S", decodes it there. The
         # block's counter sits in the core; decoded straight from it, the
         # pins' registers were a long route and a compare away (the DAC's
         # data from the slot counter, 7.5 to 7.8 ns in n10_20_200). A copy
         # of the counter's next value instead is the counter itself to
         # Yosys, which merged the two.
+        was = (reset_slot(M) - 1) % M
         if M > 1:
-            before = Signal.like(self.slot, init=M - 1, name="pin_slot_before")
+            before = Signal.like(self.slot, init=was, name="pin_slot_before")
             m.d[d] += before.eq(self.slot)
 
         def in_slot(slots, ahead=0, slot_before=None):
             """This clock's slot (``ahead`` clocks later's) is in ``slots``;
-            ``slot_before``: from a copy of ``before`` XOR M - 1 (0 at reset)."""
+            ``slot_before``: from a copy of ``before`` XOR ``was`` (0 at reset)."""
             if M == 1:
                 return Const(0 in slots)
             if slot_before is None:
                 return Cat(*[before == (k - 1 - ahead) % M for k in slots]).any()
-            return Cat(*[slot_before == ((k - 1 - ahead) % M) ^ (M - 1) for k in slots]).any()
+            return Cat(*[slot_before == ((k - 1 - ahead) % M) ^ was for k in slots]).any()
 
         # The pattern's two half clocks of this slot, registered: high while
         # the half clock's index within the period is below M.
@@ -227,9 +229,9 @@ class SampleIO(wiring.Component):
         # pins was a two-pipeline build's worst path, 6.5 ns of one route),
         # decoded from a copy of the slot of their own, beside them (from
         # ``before``, 6.0 ns at two pipelines): kept too, so its reset to 0
-        # stands for ``before``'s M - 1.
+        # stands for ``before``'s ``was``.
         for name, cell in (("adc_clk", adc_clk), ("dac_clk", dac_clk), ("dac_iq", dac_iq)):
-            own = kept_register(m, platform, self.slot ^ (M - 1), f"{name}_slot", reset=True,
+            own = kept_register(m, platform, self.slot ^ was, f"{name}_slot", reset=True,
                                 domain=d) if M > 1 else None
             m.d.comb += [cell.o[0].eq(kept_register(m, platform, in_slot(first_i, slot_before=own),
                                                     f"{name}_hi0", reset=True, domain=d)),

@@ -23,8 +23,9 @@ __all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "accept_clock", "C
            "MIRROR_LAG"]
 
 #: Clocks from the period start to the common line's c[n] on ``win_data``
-#: (the top asks the line's read for step n in the accepting clock and
-#: registers the line's word once, beside its block RAMs, for all pipelines).
+#: (the top asks the line's read for step n in the clock before the period
+#: start and registers the line's word once, beside its block RAMs, for all
+#: pipelines).
 COMMON_OUT_CYCLES = 4
 #: Clocks from a slot's completed update to its pending/bank mirrors.
 MIRROR_LAG = 1
@@ -134,9 +135,10 @@ def accept_clock(slots: int) -> int:
     """The clock of a pipeline's period in which its ``accept`` comes: the
     first (0) at M <= 2; the second (1) from M = 3, where the step flag is
     first needed at the visit, two clocks after the period start. The top
-    then sends the accept strobe to the pipelines through two levels of
-    registered copies (one copy for seven pipelines spread over the device
-    was the 64-channel build's worst path, 8.3 ns, 6.8 of it one route)."""
+    then sends the accept strobe from its register beside the input's pins
+    to the pipelines through two levels of registered copies (one copy for
+    seven pipelines spread over the device was the 64-channel build's worst
+    path, 8.3 ns, 6.8 of it one route)."""
     return 0 if visit_cycles(slots) < 2 else 1
 
 
@@ -318,8 +320,8 @@ class ChannelPipeline(wiring.Component):
 
         V = visit_cycles(M)
         # ---- the slot schedule: rslot (register read), vslot (visit) --------
-        # The period starts (rslot 0) in the clock of ``accept`` (the top's
-        # accepting clock plus ACCEPT_LAG), the first clock after reset.
+        # The period starts (rslot 0) ACCEPT_LAG clocks after the top's
+        # accepting clock, first in the clock after reset.
         rslot = Signal(range(max(2, M)), init=M - 1, name="rslot")
         if M > 1:
             m.d.sync += rslot.eq(Mux(rslot == M - 1, 0, rslot + 1))

@@ -6,7 +6,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from ..model.regmap import RegisterMap, CRC32_POLY, STORED, CHANNEL_BASE, CHANNEL_STRIDE
-from ..model.fixedpoint import STREAM_WIDTH, WRITE_STAGING
+from ..model.fixedpoint import STREAM_WIDTH, REGISTER_STAGING
 from .ecp5_primitives import kept_register
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
@@ -56,7 +56,7 @@ def crc32_step(crc, bits):
 #: the comparisons in parts of 8 bits, their AND (about 60 bits compared in
 #: one clock was a 200 MHz build's worst path, 7.2 ns; the RAMs' read and
 #: the comparison in one clock 9.8 ns at 64 channels, docs/bitstream.md).
-#: Each level is a clock of the write's staging (WRITE_STAGING), from the
+#: Each level is a clock of the write's staging (REGISTER_STAGING), from the
 #: bus's register on; the first reads the check's RAMs.
 MATCH_STAGES = 3
 #: Clocks the stream CRC takes per word after the clock that loads it into
@@ -117,8 +117,8 @@ class RegisterFile(wiring.Component):
     The engine's timing decides when the bus may be taken and when what is
     taken lands: ``take`` (from the engine) is the bus's ``ready``; a write
     taken in cycle t lands (storage, commands, APPLY, the pool write) in cycle
-    ``t + WRITE_STAGING``. A read taken in cycle t samples the stored values in
-    cycle ``t + WRITE_STAGING``, the engine's per-channel state mirrors
+    ``t + REGISTER_STAGING``. A read taken in cycle t samples the stored values in
+    cycle ``t + REGISTER_STAGING``, the engine's per-channel state mirrors
     (CTRL.swap, CTRL.bank) in cycle ``t + mirror_delay`` and the sticky
     overflow flag in cycle ``t + status_delay`` (clearing it there), so that
     every part of the answer is the state between the same two steps; the
@@ -232,7 +232,7 @@ class RegisterFile(wiring.Component):
     @property
     def read_latency(self) -> int:
         """Cycles from a taken read to ``r_valid``."""
-        return max(WRITE_STAGING, self._mirror_delay, self._status_delay) + self.SELECT_LEVELS + 1
+        return max(REGISTER_STAGING, self._mirror_delay, self._status_delay) + self.SELECT_LEVELS + 1
 
     def elaborate(self, platform):
         m = Module()
@@ -291,7 +291,7 @@ class RegisterFile(wiring.Component):
         # ``decoded`` (the 10-channel build's critical path was op -> compare
         # -> clamp -> LENGTH). Each group decodes from its own stages
         # (``at``).
-        wd = WRITE_STAGING
+        wd = REGISTER_STAGING
 
         def decoded(fn, shape, name, unit):
             """fn(op) of the access in stage wd - 1, registered from stage wd - 2."""

@@ -19,7 +19,8 @@ from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
                                 POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
-                                WRITE_STAGING, take_interval, tree_levels, visit_cycles)
+                                REGISTER_STAGING, WRITE_STAGING, take_interval, tree_levels, visit_cycles,
+                                reset_slot)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
 
@@ -78,8 +79,9 @@ class WindFarmReplay(wiring.Component):
     overflow : Out(1)
         Sticky saturation flag (cleared by reading STATUS).
     slot : Out(range(slots))
-        The slot counter: 0 in a period's first clock (the board's converter
-        clocks are made from it).
+        The slot counter: 0 in a period's first clock, the one that accepts
+        input (the board's converter clocks are made from it);
+        ``reset_slot(slots)`` in the clock of reset.
     native : Out(native_port_signature(SDRAM_ADDRESS_WIDTH, 32)), SDRAM pool only
         LiteDRAM's native user port (the whole SDRAM's word address; the
         pool is its first ``pool_words``), in domain ``sdram``.
@@ -120,7 +122,7 @@ class WindFarmReplay(wiring.Component):
             "o": Out(stream.Signature(IQ(OUTPUT_WIDTH))),
             "bus": In(BusSignature(self._rmap.addr_width)),
             "overflow": Out(1),
-            "slot": Out(range(max(2, slots))),
+            "slot": Out(range(max(2, slots)), init=reset_slot(slots)),
             **({"native": Out(native_port_signature(SDRAM_ADDRESS_WIDTH, WORD_WIDTH)),
                 "pool_error": Out(1), "underflow": Out(1)} if pool == "sdram" else {}),
         })
@@ -170,7 +172,7 @@ class WindFarmReplay(wiring.Component):
         m = Module()
         c = self._contract
         N, M, P = c.channels, c.slots, c.pipelines
-        Sw = WRITE_STAGING
+        Sw = REGISTER_STAGING
         b0 = 0 if M == 1 else 1                       # a pipeline's update stage
         K = c.output_cycles
         regs_layout = channel_regs_layout(self._rmap)
@@ -180,10 +182,13 @@ class WindFarmReplay(wiring.Component):
         slot = self.slot
         if M > 1:
             m.d.sync += slot.eq(Mux(slot == M - 1, 0, slot + 1))
-        # slot == 0, from a register: the compare drove the enables of the
-        # fetch scan's ring, spread over the device (6.0-6.4 ns at 64 channels)
+        s0 = reset_slot(M)
+        # The clock before the pipelines' period start (the top's slot s0, as
+        # in the clock of reset), from a register: the compare drove the
+        # enables of the fetch scan's ring, spread over the device (6.0-6.4
+        # ns at 64 channels).
         start = Signal(init=1)
-        m.d.sync += start.eq(slot == M - 1)
+        m.d.sync += start.eq(slot == (s0 - 1) % M)
         F = self.fifo_depth
         in_flight = Signal(range(F + 1))
         accept = Signal()
@@ -215,28 +220,38 @@ class WindFarmReplay(wiring.Component):
                          in_flight.eq(count)]
         m.d.comb += [self.i.ready.eq(ready), accept.eq(self.i.valid & ready),
                      out_taken.eq(self.o.valid & self.o.ready)]
+        # The accept and its sample once more in registers (kept, so that
+        # they stay beside the input's pins), ACCEPT_LAG - 1 clocks later: the
+        # engine takes the step from here, the clock before the pipelines'
+        # period start.
+        assert ACCEPT_LAG == 2
+        stepped = kept_register(m, platform, accept, "accept_q", reset=True)
+        x_in = kept_register(m, platform, self.i.payload.as_value(), "x_q")
 
         # ---- registers ---------------------------------------------------------
-        # Writes land in the clock before the pipelines' period start (the
-        # accepting clock, top slot 0): taken WRITE_STAGING clocks earlier. A
-        # read samples the slots' mirrors after the last slot's update of the
-        # step before (the update's end V + b0 after its visit, its mirrors
-        # MIRROR_LAG later), the sticky overflow after that step's saturation.
+        # Writes land in the clock before the pipelines' period start (top
+        # slot s0, a clock after the accepting one): taken Sw =
+        # REGISTER_STAGING clocks earlier. A read samples the slots' mirrors
+        # after the last slot's update of the step before (the update's end V
+        # + b0 after its visit, its mirrors MIRROR_LAG later), the sticky
+        # overflow in the clock of the next step's saturation (K clocks after
+        # its accept, which is ACCEPT_LAG - 1 clocks before the landing).
         V = visit_cycles(M)
         m.submodules.regs = regs = RegisterFile(
-            self._rmap, mirror_delay=V + b0 + MIRROR_LAG + 1 + Sw, status_delay=K + Sw,
+            self._rmap, mirror_delay=V + b0 + MIRROR_LAG + 1 + Sw, status_delay=K + Sw - (ACCEPT_LAG - 1),
             groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)], slots=M)
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
         # ``take`` (the bus's ready) from a register: it reaches the host bridge's
         # control, and decoded from the slot counter it was the 10-channel
         # build's critical path (slot -> ready -> bridge, 7.7 ns). One clock
-        # in take_interval(M) (whole periods), at clock -Sw of a period;
-        # below M = 8 a clock counter of its own counts the interval.
+        # in take_interval(M) (whole periods), Sw clocks before a landing (in
+        # clocks from reset, landings are at multiples of M); below M = 8 a
+        # clock counter of its own counts the interval.
         W = take_interval(M)
         take_at = -Sw % W
         take = Signal(init=take_at == 0)
         if W == M:
-            m.d.sync += take.eq(slot == (take_at - 1) % M)
+            m.d.sync += take.eq(slot == (take_at - 1 + s0) % M)
         else:
             clock = Signal(range(W), name="take_clock")
             m.d.sync += [clock.eq(Mux(clock == W - 1, 0, clock + 1)),
@@ -265,23 +280,22 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += regs.take.eq(take)
 
         # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
-        # x[n] is handed to the line in the accepting clock and reaches the RAM
-        # in the pipelines' period start (from M = 2 both a clock later,
-        # below); the read for step n is asked in the accepting clock (the
-        # step count before its increment, the common delay that applies from
-        # the period start), so that c[n] is out three clocks after the period
-        # start and in a register for the pipelines at COMMON_OUT_CYCLES (4).
-        # The line's block RAMs are
-        # spread over the rows: each has its own write registers (one register
-        # fed all 16: 7.7 ns of routing in a two-pipeline build,
-        # docs/bitstream.md), and the read address, registered once, is copied
-        # per row. Where the pool's banks are placed, its floorplan keeps a
-        # block of sites in the middle of each row for them (in the free sites
-        # the placer chose, one sat up to 61 rows from its registers: 6.4-6.8
-        # ns of one route), and the sites left in blocks, one for each
-        # pipeline's window (rows in turn), whose RAMs the placer had put in
-        # single free sites far apart (a window's write data, 5.6 ns of one
-        # route).
+        # x[n] is handed to the line in the clock before the pipelines' period
+        # start (``stepped``) and reaches the RAM in the period start (from M =
+        # 2 both a clock later, below); the read for step n is asked in that
+        # clock too (the step count before its increment, the common delay that
+        # applies from the period start), so that c[n] is out three clocks after
+        # the period start and in a register for the pipelines at
+        # COMMON_OUT_CYCLES (4). The line's block RAMs are spread over the rows:
+        # each has its own write registers (one register fed all 16: 7.7 ns of
+        # routing in a two-pipeline build, docs/bitstream.md), and the read
+        # address, registered once, is copied per row. Where the pool's banks
+        # are placed, its floorplan keeps a block of sites in the middle of each
+        # row for them (in the free sites the placer chose, one sat up to 61
+        # rows from its registers: 6.4-6.8 ns of one route), and the sites left
+        # in blocks, one for each pipeline's window (rows in turn), whose RAMs
+        # the placer had put in single free sites far apart (a window's write
+        # data, 5.6 ns of one route).
         ptag = fetch_tag_layout(M)
         pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
         mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
@@ -298,7 +312,7 @@ class WindFarmReplay(wiring.Component):
             2 * INPUT_WIDTH, c.max_delay, COMMON_LAG, group_bits=common_bits,
             sites=[bel for row in reserved for bel in row][:mode[1]] if reserved else None,
             address_copies=min(len(rows), common_groups) if rows else 1)
-        assert common.depth == c.common_depth and common.latency + 1 == ACCEPT_LAG + COMMON_OUT_CYCLES
+        assert common.depth == c.common_depth and common.latency + 1 + 1 == ACCEPT_LAG + COMMON_OUT_CYCLES
         # c[n] registered once beside the line's RAMs (their output registers'
         # clock-to-out and a route to every pipeline in one clock were a latest
         # path at 64 channels, 6.5-6.9 ns), then copied per pipeline
@@ -314,10 +328,10 @@ class WindFarmReplay(wiring.Component):
         # RAM a clock after the period start, still M - 1 >= 1 clocks before
         # the read for step n + 1 addresses it.
         cnt = Signal(range(c.common_depth))
-        x = self.i.payload.as_value()
-        written = accept
+        x = x_in
+        written = stepped
         if M > 1:
-            written = kept_register(m, platform, accept, "common_accept", reset=True)
+            written = kept_register(m, platform, stepped, "common_accept", reset=True)
             x = kept_register(m, platform, x, "common_x")
         with m.If(written):
             m.d.sync += cnt.eq(cnt + 1)
@@ -396,11 +410,11 @@ class WindFarmReplay(wiring.Component):
                                  window_sites=window_blocks[p] if p < len(window_blocks) else None)
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)
-            # a registered copy of the accept strobe for each pipeline (kept:
+            # from the accept's register, a copy for each pipeline (kept:
             # equal registers are one to Yosys); from M = 3 a chain of two,
             # the pipeline taking it in its period's second clock
             # (accept_clock)
-            acc_p = accept
+            acc_p = stepped
             for k in range(accept_clock(M), -1, -1):
                 acc_p = kept_register(m, platform, acc_p, f"accept{p}" + (f"_{k}" if k else ""), reset=True)
             # the offer through a register of the pipeline's own too (from

@@ -93,8 +93,8 @@ def unpack_iq(words, width=STREAM_WIDTH):
 import math as _math
 
 __all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "ACCEPT_LAG", "visit_cycles", "WORD_CYCLES",
-            "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "WRITE_STAGING",
-            "TAKE_SPACING", "take_interval",
+            "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "REGISTER_STAGING",
+            "WRITE_STAGING", "TAKE_SPACING", "take_interval", "reset_slot",
             "tree_levels", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
@@ -337,17 +337,19 @@ def fir_coefficients() -> tuple[tuple[int, ...], ...]:
 # output n takes to leave the block (``engine_output_cycles``) are not seen
 # in the step count, only on a board (``board_latency``).
 #
-# The pipelines run one clock behind the accepting clock (ACCEPT_LAG: they
-# take a registered copy of the accept strobe), from O'(j) = O(j) + 1.
+# The pipelines run two clocks behind the accepting clock (ACCEPT_LAG: the
+# accept strobe is registered beside the input's pins, then copied to each
+# pipeline), from O'(j) = O(j) + 2.
 # Channel c = p*M + s is served by pipeline p in slot s: the channel's
 # registers are read (multiplexed by slot, registered) from O'(j) + s, and
 # its state, kept in a ring of M positions per pipeline, is at the ring's
 # head at O'(j) + s + visit_cycles(M), where it is updated (in one stage at
 # M = 1, in two at M >= 2) and its word, tap, product and gain follow a
-# fixed pipeline. Host writes land in the clock before O'(j) (they are taken
-# from the bus WRITE_STAGING clocks earlier, ``rast.hdl.registers``), so a
-# write is seen by every channel from the first step whose input is accepted
-# in its landing clock or later.
+# fixed pipeline. Host writes land in the register file in the clock before
+# O'(j) (they are taken from the bus REGISTER_STAGING clocks earlier,
+# ``rast.hdl.registers``), so a write taken in clock t is seen by every
+# channel from the first step whose input is accepted in clock
+# t + WRITE_STAGING or later.
 # ---------------------------------------------------------------------------
 
 #: Common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY].
@@ -357,8 +359,11 @@ WINDOW_LAG = 1
 #: The block's latency L in samples (steps): an echo of channel l appears
 #: ``L + COMMON_DELAY + DELAY[l]`` samples after its input.
 BLOCK_LATENCY = COMMON_LAG + WINDOW_LAG
-#: Clocks from the accepting clock to the pipelines' period start O'.
-ACCEPT_LAG = 1
+#: Clocks from the accepting clock to the pipelines' period start O': the
+#: accept strobe in a register beside the input's pins, then in each
+#: pipeline's copy (from the pins' one place to a pipeline across the device
+#: in one clock was the 64-channel build's latest path, 7.1 ns).
+ACCEPT_LAG = 2
 #: Clocks from the visit to the stream word in its register: the cache's
 #: registered address (hold, linear; the FIR's U values wait beside it), the
 #: operands, the difference, the multiplier's input and output registers, the
@@ -379,6 +384,13 @@ GAIN_CYCLES = 5
 MAC_RESULT_CYCLES = 10
 
 
+def reset_slot(slots: int) -> int:
+    """The top's slot counter in the clock of reset. The pipelines' period
+    starts in the clock after reset and M clocks apart; the top accepts
+    input when its counter is 0, ACCEPT_LAG clocks before a period start."""
+    return (ACCEPT_LAG - 1) % slots
+
+
 def visit_cycles(slots: int) -> int:
     """Clocks from a slot's register read to its visit: the slot multiplexer
     in one registered stage (M <= 2), or two (a 4:1 stage, then the groups)."""
@@ -386,7 +398,7 @@ def visit_cycles(slots: int) -> int:
 
 
 #: Clocks between a host write taken from the bus and the clock in which it
-#: lands (the accepting clock, the one before the pipelines' period start),
+#: lands in the register file (the one before the pipelines' period start),
 #: at every M: the bus first in a register of the register file's own (the
 #: bridge's data register sat far from the decode and the LENGTH clamp, 7.4
 #: ns of routing into the clamp in an SDRAM build; the SWAP check's hit
@@ -394,9 +406,14 @@ def visit_cycles(slots: int) -> int:
 #: SWAP check's three registered levels after it (the register file's RAM
 #: words, the comparisons, their AND; a RAM's read and the comparison in one
 #: clock were the 64-channel build's worst path, 9.8 ns, docs/bitstream.md),
-#: and the landing. A write takes effect from the first input accepted in
-#: its landing clock or later.
-WRITE_STAGING = 5
+#: and the landing.
+REGISTER_STAGING = 5
+#: Clocks between a host write taken from the bus and the accepting clock of
+#: the first step it takes effect for (its *landing clock* as the host sees
+#: it): the write lands in the register file ACCEPT_LAG - 1 clocks later. A
+#: write takes effect from the first input accepted in its landing clock or
+#: later.
+WRITE_STAGING = REGISTER_STAGING - (ACCEPT_LAG - 1)
 #: Fewest clocks between two accesses taken from the bus: a stream word's
 #: CRC (a clock that loads the word, then a byte a clock) is complete before
 #: the SWAP check of the next access copies it, three clocks before that

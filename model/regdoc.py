@@ -1,7 +1,7 @@
 """``docs/registers.md``, generated from the register map
 (``python -m rast.model.regdoc > docs/registers.md``)."""
 
-from .fixedpoint import ReplayContract
+from .fixedpoint import ReplayContract, WRITE_STAGING, ACCEPT_LAG
 from .regmap import RegisterMap, register_map, CHANNEL_BASE, CHANNEL_STRIDE
 
 __all__ = ["markdown", "registers_doc"]
@@ -46,15 +46,15 @@ of cycles later. Unused addresses read 0, and so do write-only fields
 are masked to the field width, then clamped into the field's range where
 one is given (LENGTH 1..pool words, DELAY 0..max).
 
-Timing: a write lands `WRITE_STAGING` (5) clocks after it was taken, in an
-accepting clock (the one before the pipelines' period start), and takes
-effect for every channel, whatever its slot, from step k on, input k being
-the first the block accepts in that clock or later (`docs/fixed_point.md`);
-a GAIN or enable change shows from output k. From M = 5 no input is
-accepted between the take and the landing, so a write taken between input
-samples k − 1 and k (a write taken in the clock cycle of an input transfer
-counts as after it) takes effect from step k; below M = 5 an input accepted
-in the clocks between counts as before it.
+Timing: a write lands `WRITE_STAGING` ({WRITE_STAGING}) clocks after it was taken, in an
+accepting clock (the pipelines' period start is `ACCEPT_LAG` ({ACCEPT_LAG}) clocks later),
+and takes effect for every channel, whatever its slot, from step k on, input
+k being the first the block accepts in that clock or later
+(`docs/fixed_point.md`); a GAIN or enable change shows from output k. From
+M = {WRITE_STAGING} no input is accepted between the take and the landing, so a write
+taken between input samples k − 1 and k (a write taken in the clock cycle
+of an input transfer counts as after it) takes effect from step k; below
+M = {WRITE_STAGING} an input accepted in the clocks between counts as before it.
 Reads return the state between the same two steps: the stored values, the
 channels' CTRL.swap/bank and the sticky STATUS.overflow.
 

@@ -19,6 +19,10 @@ from rast.model.fixedpoint import WRITE_STAGING, take_interval
 def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False):
     """Drive ``dut``; ``ops`` is a list of ``(at_step, "w"|"r", addr, value)``.
 
+    ``valid`` and ``ready`` are patterns repeated clock by clock; an input
+    offered stays offered until it is taken (a stream's rule), so the
+    pattern's gaps fall between inputs whatever the engine's phase.
+
     An op is presented from the first cycle in which at least ``at_step``
     inputs have been accepted and taken in the first cycle with ``bus.ready``
     (with ``hold``, no input is offered while an op is due or on its way to
@@ -38,6 +42,7 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
 
     async def bench(ctx):
         vpat = itertools.cycle(valid)
+        offered = False            # an input offered and not yet taken stays offered (a stream's rule)
         rpat = itertools.cycle(ready)
         n_in = 0
         op_i = 0
@@ -47,7 +52,7 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
             if n_in >= T and len(out_i) >= T and op_i >= len(ops) and not reads and not landing:
                 return
             due = op_i < len(ops) and ops[op_i][0] <= n_in
-            v = next(vpat) if n_in < T else 0
+            v = 1 if offered else (next(vpat) if n_in < T else 0)
             if hold and (due or landing):
                 v = 0
             r = next(rpat)
@@ -66,6 +71,7 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
                 ctx.set(dut.bus.w_stb, 0)
                 ctx.set(dut.bus.r_stb, 0)
             ce = v and ctx.get(dut.i.ready)
+            offered = bool(v and not ce)
             taken = due and ctx.get(dut.bus.ready)
             if ctx.get(dut.o.valid) and r:
                 out_i.append(ctx.get(dut.o.payload.re))

@@ -7,7 +7,7 @@ from amaranth.hdl import Module, Signal, ResetInserter
 from amaranth.sim import Simulator
 
 from rast.hdl.registers import RegisterFile, SLOT_RAM_FIELDS
-from rast.model.fixedpoint import ReplayContract, WRITE_STAGING, take_interval
+from rast.model.fixedpoint import ReplayContract, REGISTER_STAGING, take_interval
 from rast.model.powerup import ChannelInit
 from rast.model.regmap import register_map
 
@@ -22,7 +22,7 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
              for _ in range(channels)]
     rmap = register_map(c, inits)
     groups = [list(range(p * slots, min(channels, (p + 1) * slots))) for p in range(c.pipelines)]
-    wd = WRITE_STAGING
+    wd = REGISTER_STAGING
     dut = RegisterFile(rmap, groups=groups, slots=slots)
     rst = Signal()
     top = Module()
