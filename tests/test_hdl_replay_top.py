@@ -108,6 +108,34 @@ def test_an_output_held_back_fills_the_fifo_and_loses_no_sample(slots):
     assert_same(f"M={slots}, output held back", xi, xq, hi, hq, mi, mq)
 
 
+@pytest.mark.parametrize("slots", [1, 2, 3, 10])
+def test_an_input_every_period_is_taken_every_period(slots):
+    """The board's ADC gives a sample every period and does not wait: with
+    ``o.ready`` always high the block must take one input in every period,
+    from the first period after its pipeline has filled (``i.ready`` high in
+    every period's accepting clock, never refusing for want of FIFO room)."""
+    dut = WindFarmReplay(slots + 1, slots=slots, **KW)
+    periods = 4 * (dut.contract.output_cycles // slots + 4)
+    taken_in = []
+
+    async def bench(ctx):
+        ctx.set(dut.i.valid, 1)
+        ctx.set(dut.o.ready, 1)
+        for clock in range(periods * slots):
+            if ctx.get(dut.i.ready):
+                taken_in.append(clock // slots if slots > 1 else clock)
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    # every period but the first (the clock of reset), once each
+    assert taken_in[-periods // 2:] == list(range(periods - periods // 2, periods)), \
+        f"M={slots}: periods with an input taken: {taken_in}"
+    assert len(taken_in) >= periods - 2, f"M={slots}: {len(taken_in)} inputs in {periods} periods"
+
+
 @pytest.mark.parametrize("slots", [1, 3])
 def test_gaps_do_not_change_output(slots):
     rng = np.random.default_rng(11)
