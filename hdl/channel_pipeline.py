@@ -752,9 +752,10 @@ class ChannelPipeline(wiring.Component):
             group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG), sites=self._window_sites)
         assert win.depth == W
         read_at = WORD_CYCLES - win.latency - 1
-        # From M = 4 the write comes up to two clocks later, still a clock
-        # before step n + 1 reads c[n] at tap 0: more registers on c[n]'s
-        # way from the common line to the window.
+        # From M = 4 the write comes up to two clocks later, well before step
+        # n + 1 reads c[n] at tap 0 (test_every_delay_echo_position fails
+        # with the write M clocks later): more registers on c[n]'s way from
+        # the common line to the window.
         write_at = V + read_at + 1 + min(2, max(0, M - 3))    # clocks after the period start, at the RAM
         wen = _delay(m, astart & self.accept, write_at - 1 - A, "win_wen")
         # c[n] through registers of the pipeline's own (kept): every pipeline

@@ -151,7 +151,7 @@ def test_gaps_do_not_change_output(slots):
         assert (hi == runs[0][0]).all() and (hq == runs[0][1]).all()
 
 
-@pytest.mark.parametrize("slots", [1, 4])
+@pytest.mark.parametrize("slots", [1, 4, 10])
 @pytest.mark.parametrize("register", ["COMMON_DELAY", "DELAY"])
 def test_every_delay_echo_position(register, slots):
     """Impulse through channel 2, every value 0..max of COMMON_DELAY (tap 3) or
