@@ -783,11 +783,11 @@ class ChannelPipeline(wiring.Component):
         for part in ("re", "im"):
             mul = RegisteredMultiplier(cm.o_width, len(geff) + 1, input_reg=True)
             m.submodules[f"gain_mul_{part}"] = mul
-            # the gain's last register a copy for each multiplier (kept)
-            # the product again in a register before the multiplier: the
+            # the product again in a register before the multiplier (the
             # rounding's register sits with its adder, and from there into the
-            # multiplier was the latest path of a 16-channel build (6.9 ns,
-            # 6.3 of it one route)
+            # multiplier was the latest path of a 16-channel build, 6.9 ns,
+            # 6.3 of it one route); the gain's last register a copy for each
+            # multiplier (kept)
             m.d.comb += [mul.en.eq(1), mul.a.eq(_delay(m, getattr(cm.o, part), 1, f"gain_a_{part}", data=True)),
                          mul.b.eq(kept_register(m, platform, g, f"gain_{part}"))]
             prod = _delay(m, mul.o, 1, f"gain_prod_{part}", data=True)      # in fabric, next to the adder

@@ -214,7 +214,7 @@ class WindFarmReplay(wiring.Component):
             # sooner, never a word lost). The decision takes the count of the
             # clock before, as if a word had been accepted since and none taken
             # (count <= in_flight + 1): one place fewer than exact, which the
-            # FIFO's two spare places cover at the full input rate
+            # FIFO's spare places cover at the full input rate
             # (tests/test_hdl_replay_top.py); the sum and compare in one clock
             # were a 16-channel build's latest path (6.4 ns).
             accepted = Signal()
@@ -229,9 +229,10 @@ class WindFarmReplay(wiring.Component):
         # they stay beside the input's pins), ACCEPT_LAG - 1 clocks later: the
         # engine takes the step from here, the clock before the pipelines'
         # period start.
-        assert ACCEPT_LAG == 2
-        stepped = kept_register(m, platform, accept, "accept_q", reset=True)
-        x_in = kept_register(m, platform, self.i.payload.as_value(), "x_q")
+        stepped, x_in = accept, self.i.payload.as_value()
+        for k in range(ACCEPT_LAG - 1):
+            stepped = kept_register(m, platform, stepped, f"accept_q{k}", reset=True)
+            x_in = kept_register(m, platform, x_in, f"x_q{k}")
 
         # ---- registers ---------------------------------------------------------
         # Writes land in the clock before the pipelines' period start (top
