@@ -244,7 +244,7 @@ class WindFarmReplay(wiring.Component):
         # its accept, which is ACCEPT_LAG - 1 clocks before the landing).
         V = visit_cycles(M)
         m.submodules.regs = regs = RegisterFile(
-            self._rmap, mirror_delay=V + b0 + MIRROR_LAG + 1 + Sw, status_delay=K + Sw - (ACCEPT_LAG - 1),
+            self._rmap, mirror_delay=V + b0 + MIRROR_LAG + 1 + Sw, status_delay=K + WRITE_STAGING,
             groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)], slots=M)
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
         # ``take`` (the bus's ready) from a register: it reaches the host bridge's
@@ -318,7 +318,8 @@ class WindFarmReplay(wiring.Component):
             2 * INPUT_WIDTH, c.max_delay, COMMON_LAG, group_bits=common_bits,
             sites=[bel for row in reserved for bel in row][:mode[1]] if reserved else None,
             address_copies=min(len(rows), common_groups) if rows else 1)
-        assert common.depth == c.common_depth and common.latency + 1 + 1 == ACCEPT_LAG + COMMON_OUT_CYCLES
+        # the read asked a clock before the period start, c[n] then in the top's register
+        assert common.depth == c.common_depth and common.latency - 1 + 1 == COMMON_OUT_CYCLES
         # c[n] registered once beside the line's RAMs (their output registers'
         # clock-to-out and a route to every pipeline in one clock were a latest
         # path at 64 channels, 6.5-6.9 ns), then copied per pipeline
