@@ -35,9 +35,14 @@ def _check_divisor(divisor):
 class UARTRx(wiring.Component):
     """Receiver: ``data`` is valid for the one cycle ``stb`` is high.
 
-    The line goes through a two-register synchroniser; a start bit is
-    confirmed at its middle, each data bit sampled at its middle, and a
-    frame without its stop bit is dropped (``err`` pulses).
+    The line goes through a two-register synchroniser and one more register
+    (which the placer can put beside the receiver rather than beside the
+    pin); a start bit is confirmed at its middle, each data bit sampled at
+    its middle, and a frame without its stop bit is dropped (``err``
+    pulses). The bit timer's expiry is a flag registered a clock ahead
+    (the timer only reaches 0 by counting down from 1): its compare and
+    the data register's enables in one clock were the latest path of a
+    200 MHz build (7.1 ns).
 
     Members
     -------
@@ -61,43 +66,65 @@ class UARTRx(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         d = self._divisor
+        synced = Signal(init=1)
+        m.submodules.sync = FFSynchronizer(self.rx, synced, init=1)
         rx = Signal(init=1)
-        m.submodules.sync = FFSynchronizer(self.rx, rx, init=1)
-        timer = Signal(range(d))
+        m.d.sync += rx.eq(synced)
+        timer = _BitTimer(m, d)
         bits = Signal(4)
         shreg = Signal(8)
         m.d.sync += [self.stb.eq(0), self.err.eq(0)]
         with m.FSM():
             with m.State("IDLE"):
                 with m.If(~rx):
-                    m.d.sync += timer.eq(d // 2 - 1)
+                    timer.load(d // 2 - 1)
                     m.next = "START"
             with m.State("START"):
-                with m.If(timer == 0):
+                with m.If(timer.expired):
                     with m.If(rx):
                         m.next = "IDLE"               # a glitch, not a start bit
                     with m.Else():
-                        m.d.sync += [timer.eq(d - 1), bits.eq(0)]
+                        timer.load(d - 1)
+                        m.d.sync += bits.eq(0)
                         m.next = "DATA"
                 with m.Else():
-                    m.d.sync += timer.eq(timer - 1)
+                    timer.count()
             with m.State("DATA"):
-                with m.If(timer == 0):
-                    m.d.sync += [timer.eq(d - 1), shreg.eq(Cat(shreg[1:], rx)), bits.eq(bits + 1)]
+                with m.If(timer.expired):
+                    timer.load(d - 1)
+                    m.d.sync += [shreg.eq(Cat(shreg[1:], rx)), bits.eq(bits + 1)]
                     with m.If(bits == 7):
                         m.next = "STOP"
                 with m.Else():
-                    m.d.sync += timer.eq(timer - 1)
+                    timer.count()
             with m.State("STOP"):
-                with m.If(timer == 0):
+                with m.If(timer.expired):
                     with m.If(rx):
                         m.d.sync += [self.data.eq(shreg), self.stb.eq(1)]
                     with m.Else():
                         m.d.sync += self.err.eq(1)
                     m.next = "IDLE"
                 with m.Else():
-                    m.d.sync += timer.eq(timer - 1)
+                    timer.count()
         return m
+
+
+class _BitTimer:
+    """A down-counter of clocks with its expiry (the count at 0) as a
+    register of its own, set a clock ahead from ``count == 1``: every load
+    is of at least 1, so the count reaches 0 only by counting down."""
+
+    def __init__(self, m, divisor):
+        self._m = m
+        self.value = Signal(range(divisor))
+        self.expired = Signal(init=1)
+
+    def load(self, clocks):
+        assert clocks >= 1
+        self._m.d.sync += [self.value.eq(clocks), self.expired.eq(0)]
+
+    def count(self):
+        self._m.d.sync += [self.value.eq(self.value - 1), self.expired.eq(self.value == 1)]
 
 
 class UARTTx(wiring.Component):
@@ -125,18 +152,18 @@ class UARTTx(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         d = self._divisor
-        timer = Signal(range(d))
+        timer = _BitTimer(m, d)
         shreg = Signal(10, init=0x3FF)
         left = Signal(4)
         m.d.comb += self.ready.eq(left == 0)
         m.d.comb += self.tx.eq(shreg[0])
         with m.If(left == 0):
             with m.If(self.valid):
-                m.d.sync += [shreg.eq(Cat(Const(0, 1), self.data, Const(1, 1))),
-                             left.eq(10), timer.eq(d - 1)]
-        with m.Elif(timer == 0):
-            m.d.sync += [shreg.eq(Cat(shreg[1:], Const(1, 1))), left.eq(left - 1),
-                         timer.eq(d - 1)]
+                m.d.sync += [shreg.eq(Cat(Const(0, 1), self.data, Const(1, 1))), left.eq(10)]
+                timer.load(d - 1)
+        with m.Elif(timer.expired):
+            m.d.sync += [shreg.eq(Cat(shreg[1:], Const(1, 1))), left.eq(left - 1)]
+            timer.load(d - 1)
         with m.Else():
-            m.d.sync += timer.eq(timer - 1)
+            timer.count()
         return m
