@@ -81,7 +81,7 @@ ACC_LOW_BITS = 19
 RAM_DELAY_MIN = 3
 
 
-def _ring_delay(m, sig, n, inits, name, *, input_reg=False):
+def _ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None):
     """``sig`` delayed by ``n`` clocks, as a chain of ``n`` registers whose
     power-up values are ``inits`` (the first register's first) would delay it.
 
@@ -92,6 +92,9 @@ def _ring_delay(m, sig, n, inits, name, *, input_reg=False):
     ``input_reg``: the chain's first register stays a register before the
     RAM, so that the logic computing ``sig`` ends at flip-flops the placer
     puts beside it rather than at the RAMs' write ports.
+    ``clear``: where 1, the output is 0 in the next clock instead (the last
+    register's synchronous reset), so that logic reading the output needs
+    no multiplexer after its own arithmetic.
 
     Returns ``(output, registers)``: the registers of a short chain (all of
     them but the input and output registers are in the RAM otherwise)."""
@@ -100,14 +103,14 @@ def _ring_delay(m, sig, n, inits, name, *, input_reg=False):
         regs = []
         for k in range(n):
             nxt = Signal(layout, init=inits[k], name=f"{name}{k}")
-            m.d.sync += nxt.eq(sig)
+            m.d.sync += nxt.eq(_cleared(sig, clear if k == n - 1 else None))
             sig = nxt
             regs.append(nxt)
         return sig, regs
     if input_reg:
         first = Signal(layout, init=inits[0], name=f"{name}_in")
         m.d.sync += first.eq(sig)
-        out, regs = _ring_delay(m, first, n - 1, inits[1:], name)
+        out, regs = _ring_delay(m, first, n - 1, inits[1:], name, clear=clear)
         return out, [first, *regs]
     depth = 1 << (n - 1).bit_length()
     const = (lambda v: layout.const(v)) if isinstance(layout, data.Layout) else (lambda v: v)
@@ -127,8 +130,27 @@ def _ring_delay(m, sig, n, inits, name, *, input_reg=False):
     m.d.sync += [ptr.eq(ptr + 1), rptr.eq(rptr + 1)]
     out = Signal(layout, init=inits[n - 1], name=f"{name}_out")
     m.d.comb += [wp.en.eq(1), wp.addr.eq(ptr), wp.data.eq(sig), rp.addr.eq(rptr)]
-    m.d.sync += out.eq(rp.data)
+    m.d.sync += out.eq(_cleared(rp.data, clear))
     return out, [out]
+
+
+def _cleared(value, clear):
+    """``value``, or 0 where ``clear`` (no clear: ``value``)."""
+    return value if clear is None else Mux(clear, 0, value)
+
+
+def _select_registered(m, words, sel, name):
+    """``words[sel]`` one clock later, no register gathering more than four
+    words: groups of four selected into registers of their own (a 4:1
+    multiplexer is one slice per bit), and the returned selection among the
+    (at most two) groups, for the caller's register. An 8:1 selection in one
+    clock was the FIR's latest path at 64 channels (6.1 ns)."""
+    assert len(words) <= 8
+    if len(words) <= 4:
+        return _delay(m, Array(words)[sel] if len(words) > 1 else words[0], 1, name, data=True)
+    groups = [_delay(m, Array(words[g:g + 4])[sel[:2]], 1, f"{name}_group{g // 4}", data=True)
+              for g in range(0, len(words), 4)]
+    return Array(groups)[_delay(m, sel[2:], 1, f"{name}_gsel", data=True)]
 
 
 def accept_clock(slots: int) -> int:
@@ -656,9 +678,11 @@ class ChannelPipeline(wiring.Component):
             registered in the visit, the word ``clocks`` clocks later in a
             register: with 2, each bank's word is registered first and the
             bank selected in the second clock (a selection among 16 LUT RAMs
-            in one clock was n10_20_200's worst path, 7.2 ns). ``matters``:
-            the read is checked for an arrived word."""
-            assert clocks in (1, 2)
+            in one clock was n10_20_200's worst path, 7.2 ns); with 3, the
+            banks are selected in two registered levels
+            (``_select_registered``). ``matters``: the read is checked for an
+            arrived word."""
+            assert clocks in (1, 2, 3)
             # keep: else synthesis merges the register into the distributed
             # RAM's read port and moves it after the RAM, the address logic
             # and the RAM then in one clock (7.7 ns)
@@ -675,13 +699,14 @@ class ChannelPipeline(wiring.Component):
             else:
                 m.d.comb += ports[0].addr.eq(addr[:in_bank])
             words = [port.data for port in ports]
-            if clocks == 2:
+            bank = addr[in_bank:]
+            if clocks >= 2:
                 words = [_delay(m, w, 1, f"{name}_bank{k}", data=True) for k, w in enumerate(words)]
-            if len(words) == 1:
-                m.d.sync += word.eq(words[0])
+                bank = _delay(m, bank, 1, f"{name}_bank", data=True)
+            if clocks == 3:
+                m.d.sync += word.eq(_select_registered(m, words, bank, f"{name}_sel"))
             else:
-                bank = addr[in_bank:] if clocks == 1 else _delay(m, addr[in_bank:], 1, f"{name}_bank", data=True)
-                m.d.sync += word.eq(Array(words)[bank])
+                m.d.sync += word.eq(Array(words)[bank] if len(words) > 1 else words[0])
             if arrival and matters is not None:
                 chk = Signal(name=f"{name}_checked")
                 m.d.sync += chk.eq(matters & playing)
@@ -793,11 +818,24 @@ class ChannelPipeline(wiring.Component):
             prod = _delay(m, mul.o, 1, f"gain_prod_{part}", data=True)      # in fabric, next to the adder
             m.d.sync += getattr(q, part).eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
         assert 1 + 2 + 1 + 1 == GAIN_CYCLES
-        qslot = _delay(m, vslot, WORD_CYCLES - 1 + cm.latency + GAIN_CYCLES, "qslot")
-        first = qslot == 0
+        # The period's sum: the slots' q added into an accumulator that is
+        # cleared (its registers' reset) where the next clock's q is a
+        # period's first, the finished sum taken into ``sum`` then. An adder
+        # straight into its registers: a multiplexer after it (the first
+        # slot's q or the sum) was among the 64-channel build's late paths
+        # (5.9 ns). ``sum`` holds a period's sum in the clock of the next
+        # period's first q and M - 1 clocks after.
+        q_slot_ahead = _delay(m, vslot, WORD_CYCLES - 1 + cm.latency + GAIN_CYCLES - 2, "qslot")
+        period_ends = Signal(name="period_ends")
+        m.d.sync += period_ends.eq(q_slot_ahead == 0)
         for part in ("re", "im"):
             s_ = getattr(self.sum, part)
-            m.d.sync += s_.eq(Mux(first, getattr(q, part), s_ + getattr(q, part)))
+            acc = Signal.like(s_, name=f"slot_acc_{part}", reset_less=True)
+            total = Signal.like(s_, name=f"slot_total_{part}")
+            m.d.comb += total.eq(acc + getattr(q, part))
+            m.d.sync += acc.eq(_cleared(total, period_ends))
+            with m.If(period_ends):
+                m.d.sync += s_.eq(total)
         return m
 
     def _elaborate_mac(self, m, platform, st, cache, cache_read, mac_wr, mac_dest, mac_val):
@@ -817,15 +855,15 @@ class ChannelPipeline(wiring.Component):
             for k, v in enumerate(row):
                 rom_init[(p << TB) | k] = v
         # In logic, not a block RAM (the block RAMs are the pool's and the
-        # delays'), and in two registered levels: ROMs of the address's low
+        # delays'), and in three registered levels: ROMs of the address's low
         # bits (a 6-input function per bit), then a multiplexer of their
-        # outputs by the high bits. The whole 9-input ROM in one clock was the
+        # outputs by the high bits in two (``_select_registered``). The whole 9-input ROM in one clock was the
         # pipeline's worst path (7.9 ns); 7-input ROMs, four LUTs in series,
         # were still among the 200 MHz build's late endpoints (6.9 ns).
         addr_bits = TB + PB
         low_bits = addr_bits - COEF_ROM_SPLIT_BITS
         full = Cat(st.tap, st.cphase)
-        rom_high = _delay(m, full[low_bits:], 2, "mac_rom_high", data=True)
+        rom_high = _delay(m, full[low_bits:], 2, "mac_rom_high", data=True)   # beside the ROMs' words
         parts = []
         for k in range(1 << COEF_ROM_SPLIT_BITS):
             rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=1 << low_bits,
@@ -842,14 +880,16 @@ class ChannelPipeline(wiring.Component):
             m.d.comb += rd.addr.eq(rom_addr)
             m.d.sync += part.eq(rd.data)
             parts.append(part)
-        # the coefficient in a register for each multiplier (kept)
-        coef = Array(parts)[rom_high]
-        word = cache_read(cache, st.rpos, "mac_word", st.issuing, clocks=2)   # beside the ROM's two levels
+        # the ROMs' words selected in two registered levels, then the
+        # coefficient in a register for each multiplier (kept)
+        coef = _select_registered(m, parts, rom_high, "mac_coef_sel")
+        word = cache_read(cache, st.rpos, "mac_word", st.issuing, clocks=3)   # beside the ROM's three levels
         flags = data.StructLayout({"valid": 1, "first": 1, "last": 1, "dest": range(3)})
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),
                      f0.dest.eq(st.dest)]
-        fprod = _delay(m, f0, 6, "mac_f")                    # with the product in fabric
+        fmul = _delay(m, f0, 6, "mac_f")                     # with the multiplier's output
+        fprod = _delay(m, fmul, 1, "mac_fp")                 # with the product in fabric
         fhigh = _delay(m, fprod, 1, "mac_fh")               # with the upper half's sum
         resf = _delay(m, fhigh, 3, "mac_resf")              # with the result
         res = Signal(IQ(W), name="mac_res", reset_less=True)
@@ -858,26 +898,34 @@ class ChannelPipeline(wiring.Component):
             m.submodules[f"fir_mul_{part}"] = mul
             m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(word, part)),
                          mul.b.eq(kept_register(m, platform, coef, f"mac_coef_{part}").as_signed())]
+            # the product, 0 where no tap is issued (its register's reset)
             prod = Signal(signed(FIR_ACC_WIDTH), name=f"fir_prod_{part}", reset_less=True)
-            m.d.sync += prod.eq(mul.o)
+            m.d.sync += prod.eq(_cleared(mul.o, ~fmul.valid))
             # One accumulator per slot: this slot's, updated, then round the
             # ring (M clocks) back to its next tap. In two halves, the upper a
             # clock after the lower with its carry (the 38-bit sum in one clock
             # was a latest path of a two-pipeline build, 6.1 ns); each half
-            # goes round a ring of its own.
+            # goes round a ring of its own. Each half is the sum of the
+            # previous value, 0 at a job's first tap (the ring's output
+            # cleared), and the product, 0 without a tap: an adder straight
+            # into the register (a multiplexer after the adder was in the
+            # 64-channel build's late paths, 5.7 ns).
             acc_lo = Signal(ACC_LOW_BITS, name=f"fir_acc_lo_{part}", reset_less=True)
             acc_hi = Signal(FIR_ACC_WIDTH - ACC_LOW_BITS, name=f"fir_acc_hi_{part}", reset_less=True)
-            prev_lo, prev_hi = acc_lo, acc_hi
             if M > 1:
-                prev_lo, _ = _ring_delay(m, acc_lo, M - 1, [0] * (M - 1), f"fir_accs_lo_{part}")
-                prev_hi, _ = _ring_delay(m, acc_hi, M - 1, [0] * (M - 1), f"fir_accs_hi_{part}")
+                prev_lo, _ = _ring_delay(m, acc_lo, M - 1, [0] * (M - 1), f"fir_accs_lo_{part}",
+                                         clear=fmul.valid & fmul.first)
+                prev_hi, _ = _ring_delay(m, acc_hi, M - 1, [0] * (M - 1), f"fir_accs_hi_{part}",
+                                         clear=fprod.valid & fprod.first)
+            else:
+                prev_lo = _cleared(acc_lo, fprod.valid & fprod.first)
+                prev_hi = _cleared(acc_hi, fhigh.valid & fhigh.first)
             sum_lo = Signal(ACC_LOW_BITS + 1, name=f"fir_sum_lo_{part}")
             carry = Signal(name=f"fir_carry_{part}", reset_less=True)
             m.d.comb += sum_lo.eq(prev_lo + prod[:ACC_LOW_BITS])
-            m.d.sync += [acc_lo.eq(Mux(fprod.valid, Mux(fprod.first, prod[:ACC_LOW_BITS], sum_lo), prev_lo)),
-                         carry.eq(sum_lo[-1])]
+            m.d.sync += [acc_lo.eq(sum_lo), carry.eq(sum_lo[-1])]
             prod_hi = _delay(m, prod[ACC_LOW_BITS:], 1, f"fir_prod_hi_{part}", data=True)
-            m.d.sync += acc_hi.eq(Mux(fhigh.valid, Mux(fhigh.first, prod_hi, prev_hi + prod_hi + carry), prev_hi))
+            m.d.sync += acc_hi.eq(prev_hi + prod_hi + carry)
             acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}")
             m.d.comb += acc.eq(Cat(_delay(m, acc_lo, 1, f"fir_acc_lo_{part}", data=True), acc_hi))
             rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}", reset_less=True)
@@ -895,7 +943,7 @@ class ChannelPipeline(wiring.Component):
             m.d.sync += getattr(res, part).eq(Mux(over, hi, Mux(under, lo, rounded)))
         # addresses, ROM levels (the word beside), multiplier in and out, product,
         # the accumulator's two halves, round, saturate
-        assert 1 + 2 + 2 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
+        assert 1 + 3 + 2 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
         pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
         res_d = _delay(m, res, pad, "mac_res", data=True)
         resf_d = _delay(m, resf, pad, "mac_resf")
