@@ -628,9 +628,12 @@ class ChannelPipeline(wiring.Component):
                 m.d.sync += [self.pending[s].eq(done[0]), self.bank[s].eq(done[1])]
 
         # ---- fetch requests ---------------------------------------------------
-        with m.If(1):
-            m.d.sync += [self.req_valid.eq(a["grant"]), self.req_addr.eq(st.f_addr),
-                         self.req_tag.pos.eq(st.f_pos), self.req_tag.slot.eq(vslot)]
+        # the request's valid in a register of its own (kept): as a plain
+        # register Yosys merged it with stage B's grant (the same input), one
+        # flip-flop for the pool's request tree and the state update, far
+        # from both (into the fetcher's next address, 5.8-6.0 ns)
+        m.d.comb += self.req_valid.eq(kept_register(m, platform, a["grant"], "req_valid_q", reset=True))
+        m.d.sync += [self.req_addr.eq(st.f_addr), self.req_tag.pos.eq(st.f_pos), self.req_tag.slot.eq(vslot)]
 
         # ---- the word cache: M x CACHE_WORDS words, by (slot, position) ----------
         # In banks by the slot's upper bits (up to 2**CACHE_BANK_BITS of them):
