@@ -155,14 +155,18 @@ class UARTTx(wiring.Component):
         timer = _BitTimer(m, d)
         shreg = Signal(10, init=0x3FF)
         left = Signal(4)
-        m.d.comb += self.ready.eq(left == 0)
+        # ready is left == 0, a register of its own set with the last bit's
+        # count (the compare into the reply queue's level, through its read
+        # enable, was among a 200 MHz build's late paths)
+        idle = Signal(init=1)
+        m.d.comb += self.ready.eq(idle)
         m.d.comb += self.tx.eq(shreg[0])
-        with m.If(left == 0):
+        with m.If(idle):
             with m.If(self.valid):
-                m.d.sync += [shreg.eq(Cat(Const(0, 1), self.data, Const(1, 1))), left.eq(10)]
+                m.d.sync += [shreg.eq(Cat(Const(0, 1), self.data, Const(1, 1))), left.eq(10), idle.eq(0)]
                 timer.load(d - 1)
         with m.Elif(timer.expired):
-            m.d.sync += [shreg.eq(Cat(shreg[1:], Const(1, 1))), left.eq(left - 1)]
+            m.d.sync += [shreg.eq(Cat(shreg[1:], Const(1, 1))), left.eq(left - 1), idle.eq(left == 1)]
             timer.load(d - 1)
         with m.Else():
             timer.count()
