@@ -235,7 +235,8 @@ class ChannelPipeline(wiring.Component):
         word not yet arrived, in the clock before.
     """
 
-    def __init__(self, contract, index, slot_inits, regs_layout, values_layout, *, window_sites=None):
+    def __init__(self, contract, index, slot_inits, regs_layout, values_layout, *, window_sites=None,
+                 win_data_lag=0):
         if not isinstance(contract, ReplayContract):
             raise TypeError(f"Contract must be a ReplayContract, not {contract!r}")
         M = contract.slots
@@ -246,6 +247,11 @@ class ChannelPipeline(wiring.Component):
         if len(slot_inits) != M or not all(isinstance(s, SlotInit) for s in slot_inits):
             raise ValueError(f"Slot inits must be {M} SlotInit, not {slot_inits!r}")
         self._c = contract
+        room = self.win_data_room(M)
+        if not isinstance(win_data_lag, int) or isinstance(win_data_lag, bool) or not 0 <= win_data_lag <= room:
+            raise ValueError(f"Window data lag must be an integer in [0, {room}] at {M} slots, "
+                             f"not {win_data_lag!r}")
+        self._win_data_lag = win_data_lag
         self._index = index
         self._inits = slot_inits
         self._window_sites = window_sites
@@ -278,6 +284,24 @@ class ChannelPipeline(wiring.Component):
         c = self._c
         return ((c.slots - 1) + visit_cycles(c.slots) + WORD_CYCLES + CMULT_CYCLES[c.cmult_form]
                 + GAIN_CYCLES + 1)
+
+    @staticmethod
+    def window_write_cycles(slots: int) -> int:
+        """Clocks from the period start to the window's write at its RAM: after
+        the visit and the tap's read (WORD_CYCLES - the window's latency - 1
+        after it); from M = 4 up to two clocks later, well before step n + 1
+        reads c[n] at tap 0 (test_every_delay_echo_position fails with the
+        write M clocks later), so that c[n] passes more registers on its way
+        from the common line."""
+        read_at = WORD_CYCLES - DelayLine.LATENCY - 1
+        return visit_cycles(slots) + read_at + 1 + min(2, max(0, slots - 3))
+
+    @classmethod
+    def win_data_room(cls, slots: int) -> int:
+        """Registers c[n] passes between ``win_data`` (COMMON_OUT_CYCLES after
+        the period start) and the window's write registers: the top may
+        take up to this many of them (``win_data_lag``)."""
+        return cls.window_write_cycles(slots) - 1 - COMMON_OUT_CYCLES
 
     @property
     def update_stage(self) -> int:
@@ -778,20 +802,16 @@ class ChannelPipeline(wiring.Component):
         m.submodules.window = win = DelayLine(
             2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG,
             group_bits=DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG), sites=self._window_sites)
-        assert win.depth == W
+        assert win.depth == W and win.latency == DelayLine.LATENCY
         read_at = WORD_CYCLES - win.latency - 1
-        # From M = 4 the write comes up to two clocks later, well before step
-        # n + 1 reads c[n] at tap 0 (test_every_delay_echo_position fails
-        # with the write M clocks later): more registers on c[n]'s way from
-        # the common line to the window.
-        write_at = V + read_at + 1 + min(2, max(0, M - 3))    # clocks after the period start, at the RAM
+        write_at = self.window_write_cycles(M)
         wen = _delay(m, astart & self.accept, write_at - 1 - A, "win_wen")
         # c[n] through registers of the pipeline's own (kept): every pipeline
         # delays the same common-line word, so plain registers were one chain
         # to Yosys, feeding all the windows' write registers across the device
-        # (6.2-6.7 ns at 64 channels)
+        # (6.2-6.7 ns at 64 channels); win_data_lag of them are the top's
         wdata = self.win_data
-        for k in range(write_at - 1 - COMMON_OUT_CYCLES):
+        for k in range(self.win_data_room(M) - self._win_data_lag):
             wdata = kept_register(m, platform, wdata, f"win_wdata_d{k + 1}")
         windex = _delay(m, nidx_h, write_at - 2 - A, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),

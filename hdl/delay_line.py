@@ -119,10 +119,14 @@ class DelayLine(wiring.Component):
         mode = dp16kd_mode(width, delay_depth(max_delay + lag - 1))
         return min(mode[0], width) if mode else width
 
+    #: Clocks from a read's ``r_index``/``r_delay`` to its word on ``o``
+    #: without address copies (one more with them).
+    LATENCY = 3
+
     @property
     def latency(self):
         """Clocks from a read's ``r_index``/``r_delay`` to its word on ``o``."""
-        return 3 if self._address_copies is None else 4
+        return self.LATENCY + (self._address_copies is not None)
 
     @property
     def width(self):

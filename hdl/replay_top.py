@@ -412,9 +412,18 @@ class WindFarmReplay(wiring.Component):
         # ---- the pipelines ---------------------------------------------------------
         pipes = []
         reqs = []
+        # c[n] from the common line's register, through a copy for each pair
+        # of pipelines where their windows' writes leave room (from M = 3;
+        # kept): one register into every pipeline's first copy was the
+        # 64-channel build's latest path (6.0 ns of one route)
+        win_data_lag = 1 if P > 2 and ChannelPipeline.win_data_room(M) >= 1 else 0
+        win_data = common_word
         for p in range(P):
+            if win_data_lag and p % 2 == 0:
+                win_data = kept_register(m, platform, common_word, f"common_word_pair{p // 2}")
             pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout,
-                                 window_sites=window_blocks[p] if p < len(window_blocks) else None)
+                                 window_sites=window_blocks[p] if p < len(window_blocks) else None,
+                                 win_data_lag=win_data_lag)
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)
             # from the accept's register, a copy for each pipeline (kept:
@@ -428,7 +437,7 @@ class WindFarmReplay(wiring.Component):
             # the scan's one place into the pipelines' first offer register
             # was a latest path of the 64-channel build, 6.6 ns)
             offer = kept_register(m, platform, scan[p] & credit, f"offer{p}", reset=True)
-            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(common_word), pl.offer.eq(offer),
+            m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(win_data), pl.offer.eq(offer),
                          pl.values.eq(regs.values[p])]
             for s in range(M):
                 ch = p * M + s

@@ -72,6 +72,21 @@ def test_top_parameters():
         WindFarmReplay(2, init_common_delay=4095)
 
 
+def test_window_data_lag_is_checked():
+    """The top may take only the registers c[n] passes on its way to the
+    window's write (none at M = 2, where the window is written straight
+    from ``win_data``)."""
+    from rast.hdl.channel_pipeline import ChannelPipeline, SlotInit
+    from rast.hdl.registers import channel_regs_layout, slot_values_layout
+    for slots, lag in ((2, 1), (10, ChannelPipeline.win_data_room(10) + 1)):
+        dut = WindFarmReplay(slots, slots=slots)
+        layouts = channel_regs_layout(dut.register_map), slot_values_layout(dut.register_map)
+        inits = [SlotInit()] * slots
+        with pytest.raises(ValueError, match=rf"^Window data lag must be an integer in \[0, {lag - 1}\] "
+                                             rf"at {slots} slots, not {lag}$"):
+            ChannelPipeline(dut.contract, 0, inits, *layouts, win_data_lag=lag)
+
+
 STALLS = [((1,), (1,)), ((1, 1, 0), (1, 0, 1, 1)), ((0, 1, 0, 0, 1), (1,)), ((1,), (0, 1))]
 
 
