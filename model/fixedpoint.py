@@ -371,7 +371,8 @@ ACCEPT_LAG = 2
 WORD_CYCLES = 7
 #: Clocks from the operands to the rounded complex product, per form: the
 #: multipliers' input and output registers, the products in fabric, the
-#: difference/sum, the rounding (3mult: one more for the pre-additions).
+#: low and high parts' difference/sum with the rounding constant, their sum
+#: (3mult: one more for the pre-additions).
 CMULT_CYCLES = {"4mult": 5, "3mult": 6}
 #: Clocks from the rounded product to the rounded gain product (the product
 #: again in a register beside the multiplier, the multiplier's input and
