@@ -20,7 +20,7 @@ from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE
 from ..model.powerup import ChannelInit
 
 __all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "accept_clock", "COMMON_OUT_CYCLES",
-           "MIRROR_LAG"]
+           "MIRROR_LAG", "REQUEST_CYCLES"]
 
 #: Clocks from the period start to the common line's c[n] on ``win_data``
 #: (the top asks the line's read for step n in the clock before the period
@@ -29,6 +29,9 @@ __all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "accept_clock", "C
 COMMON_OUT_CYCLES = 4
 #: Clocks from a slot's completed update to its pending/bank mirrors.
 MIRROR_LAG = 1
+#: Clocks from a grant (in the visit's stage A) to the pipeline's fetch request
+#: on ``req_valid``, ``req_addr`` and ``req_tag``.
+REQUEST_CYCLES = 2
 
 POS_BITS = (CACHE_WORDS - 1).bit_length()
 
@@ -222,7 +225,7 @@ class ChannelPipeline(wiring.Component):
         The fetch scan offers this pipeline's slots a fetch in this period
         (stable from the period's third clock for M clocks).
     req_valid : Out(1), req_addr : Out(pool address), req_tag : Out(fetch_tag_layout)
-        A fetch request (registered).
+        A fetch request, REQUEST_CYCLES after its grant.
     fill_en : In(1), fill_tag : In(fetch_tag_layout), fill_data : In(32)
         A pool word for one of this pipeline's slots.
     pending, bank : Out(1).array(M)
@@ -448,7 +451,7 @@ class ChannelPipeline(wiring.Component):
             "step": PHASE_FRAC_BITS + 1, "left_one": 1, "left1": range(c.pool_words), "len0": 1,
             "n_len_m1": range(c.pool_words), "n_inc": PHASE_FRAC_BITS, "n_base": c.pool_address_width,
             "n_last": 1, "n_fstart": range(c.pool_words),
-            "grant": 1, "fwrap": 1, "f_idx1": range(c.pool_words), "f_addr1": c.pool_address_width,
+            "grant": 1, "f_idx_next": range(c.pool_words), "f_addr_next": c.pool_address_width,
             "start": 1, "issue": 1, "last_tap": 1, "release": 1, "jstep": 1,
             "refill1": range(R + 1), "refill_more": 1, "refill_jobs": 1,
             # the sums stage B selects from (its adders were most of its
@@ -522,9 +525,12 @@ class ChannelPipeline(wiring.Component):
         m.d.comb += present_v.eq(present.bit_select(vslot, 1) if M > 1 else present[0])
         want = (st.ahead < CACHE_FILL_WORDS) & ~st.restart & present_v
         a["grant"] = offer & want
-        a["fwrap"] = st.f_idx == st.len_m1
-        a["f_idx1"] = st.f_idx + 1
-        a["f_addr1"] = st.f_addr + 1
+        # the fetcher's next index and address, wrapped here: their selection
+        # in stage B by the wrap too was the largest group of the 64-channel
+        # build's late endpoints (the fetcher's next address, 5.8 ns)
+        fwrap = st.f_idx == st.len_m1
+        a["f_idx_next"] = Mux(fwrap, 0, st.f_idx + 1)
+        a["f_addr_next"] = Mux(fwrap, st.base, st.f_addr + 1)
         a["refill1"] = st.refill - 1
         a["refill_more"] = st.refill != 1
         a["refill_jobs"] = st.refill <= FIR_REFILL_SAMPLES + 1
@@ -600,8 +606,7 @@ class ChannelPipeline(wiring.Component):
                              nxt.f_pos.eq(0), nxt.ahead.eq(0), nxt.cpos.eq(0)]
             with m.Else():
                 with m.If(x.grant):
-                    m.d.comb += [nxt.f_idx.eq(Mux(x.fwrap, 0, x.f_idx1)),
-                                 nxt.f_addr.eq(Mux(x.fwrap, x.base, x.f_addr1)),
+                    m.d.comb += [nxt.f_idx.eq(x.f_idx_next), nxt.f_addr.eq(x.f_addr_next),
                                  nxt.f_pos.eq(x.f_pos1)]
                 m.d.comb += [nxt.ahead.eq(Mux(x.grant == x.release, x.ahead,
                                               Mux(x.grant, x.ahead_up, x.ahead_dn))),
@@ -652,12 +657,17 @@ class ChannelPipeline(wiring.Component):
                 m.d.sync += [self.pending[s].eq(done[0]), self.bank[s].eq(done[1])]
 
         # ---- fetch requests ---------------------------------------------------
-        # the request's valid in a register of its own (kept): as a plain
-        # register Yosys merged it with stage B's grant (the same input), one
-        # flip-flop for the pool's request tree and the state update, far
-        # from both (into the fetcher's next address, 5.8-6.0 ns)
-        m.d.comb += self.req_valid.eq(kept_register(m, platform, a["grant"], "req_valid_q", reset=True))
-        m.d.sync += [self.req_addr.eq(st.f_addr), self.req_tag.pos.eq(st.f_pos), self.req_tag.slot.eq(vslot)]
+        # In two registers (REQUEST_CYCLES), the first beside stage A, the
+        # valid's a kept one: as a plain register Yosys merged it with stage
+        # B's grant (the same input), one flip-flop for the pool's request
+        # tree and the state update, far from both (into the fetcher's next
+        # address, 5.8-6.0 ns); kept, it was one route from the grant's
+        # logic to the requests' OR (6.1 ns).
+        req_addr, req_tag = Signal.like(self.req_addr), Signal.like(self.req_tag)
+        m.d.sync += [req_addr.eq(st.f_addr), req_tag.pos.eq(st.f_pos), req_tag.slot.eq(vslot),
+                     self.req_valid.eq(kept_register(m, platform, a["grant"], "req_valid_q", reset=True)),
+                     self.req_addr.eq(req_addr), self.req_tag.eq(req_tag)]
+        assert REQUEST_CYCLES == 2
 
         # ---- the word cache: M x CACHE_WORDS words, by (slot, position) ----------
         # In banks by the slot's upper bits (up to 2**CACHE_BANK_BITS of them):

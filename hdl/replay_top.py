@@ -10,7 +10,7 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .channel_pipeline import (ChannelPipeline, SlotInit, fetch_tag_layout, accept_clock, COMMON_OUT_CYCLES,
-                               MIRROR_LAG)
+                               REQUEST_CYCLES, MIRROR_LAG)
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
 from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode
@@ -380,16 +380,16 @@ class WindFarmReplay(wiring.Component):
         grouped = P > REQUEST_GROUP          # the requests ORed in two registered levels
         if sdram:
             # Fetches queue in a FIFO in front of the pool, which may refuse
-            # them. An offer reaches the FIFO V + 4 clocks later (the offer's
-            # register, the pipeline's offer delay, its grant register, the
-            # request register; one more with the group's), so a pipeline is offered
-            # fetches only while the FIFO, as counted a clock before, has
-            # room for every offer since.
+            # them. An offer reaches the FIFO V + 3 + REQUEST_CYCLES clocks
+            # later (the offer's register, the pipeline's offer delay, its
+            # request registers, the top's request register; one more with
+            # the group's), so a pipeline is offered fetches only while the
+            # FIFO, as counted a clock before, has room for every offer since.
             m.submodules.req_fifo = req_fifo = SyncFIFO(width=len(req_addr) + pool_tag.size,
                                                        depth=SDRAM_REQUEST_FIFO)
             credit = Signal()
             req_lost = Signal()
-            m.d.sync += credit.eq(req_fifo.level <= SDRAM_REQUEST_FIFO - V - 5 - grouped)
+            m.d.sync += credit.eq(req_fifo.level <= SDRAM_REQUEST_FIFO - V - 4 - REQUEST_CYCLES - grouped)
             with m.If(req_valid & ~req_fifo.w_rdy):
                 m.d.sync += req_lost.eq(1)
             m.d.comb += [req_fifo.w_en.eq(req_valid), req_fifo.w_data.eq(Cat(req_addr, req_tag)),
@@ -402,25 +402,30 @@ class WindFarmReplay(wiring.Component):
         fill_tag = Signal(pool_tag)
         fill_data = Signal.like(pool.d_data, reset_less=True)
         m.d.sync += [fill_valid.eq(pool.d_valid), fill_tag.eq(pool.d_tag), fill_data.eq(pool.d_data)]
-        # grant (visit) -> pipeline's request register -> (the group's request
+        # grant (visit) -> pipeline's request registers -> (the group's request
         # register, beyond REQUEST_GROUP pipelines) -> this register -> the
         # pool -> fill_* -> the pipeline's fill register -> the cache
         if not sdram:
-            assert 4 + grouped + pool.latency + 1 <= POOL_FETCH_CYCLES, \
+            assert 2 + REQUEST_CYCLES + grouped + pool.latency + 1 <= POOL_FETCH_CYCLES, \
                 "the contract's fetch latency is too short"
 
         # ---- the pipelines ---------------------------------------------------------
         pipes = []
         reqs = []
-        # c[n] from the common line's register, through a copy for each pair
-        # of pipelines where their windows' writes leave room (from M = 3;
-        # kept): one register into every pipeline's first copy was the
-        # 64-channel build's latest path (6.0 ns of one route)
-        win_data_lag = 1 if P > 2 and ChannelPipeline.win_data_room(M) >= 1 else 0
-        win_data = common_word
+        # c[n] from the common line's register through a tree of copies
+        # (kept) where the windows' writes leave room (from M = 3): a level
+        # per halving of the pipelines, down to pairs. One register into
+        # every pipeline's first copy was the 64-channel build's latest path
+        # (6.0 ns of one route); a copy per pair from it, 6.2 ns.
+        win_data_lag = min(ChannelPipeline.win_data_room(M), max(0, (P - 1).bit_length() - 1))
+        copies = {(0, 0): common_word}
+        for level in range(1, win_data_lag + 1):
+            shift = win_data_lag - level + 1          # the level's copies each serve 2**shift pipelines
+            for g in range(((P - 1) >> shift) + 1):
+                copies[(level, g)] = kept_register(m, platform, copies[(level - 1, g >> 1)],
+                                                   f"common_word_l{level}_{g}")
         for p in range(P):
-            if win_data_lag and p % 2 == 0:
-                win_data = kept_register(m, platform, common_word, f"common_word_pair{p // 2}")
+            win_data = copies[(win_data_lag, p >> 1 if win_data_lag else 0)]
             pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout,
                                  window_sites=window_blocks[p] if p < len(window_blocks) else None,
                                  win_data_lag=win_data_lag)

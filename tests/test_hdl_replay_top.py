@@ -643,15 +643,17 @@ def test_forced_switch_racing_a_wrap(slots):
     assert banks == [0] * len(banks) and len(banks) == 10
 
 
-@pytest.mark.parametrize("slots", [1, 5])
-def test_sixteen_channels(slots):
+@pytest.mark.parametrize("channels, slots", [(16, 1), (16, 5), (20, 4)])
+def test_many_channels(channels, slots):
+    """16 pipelines of one slot; 4 of 5 slots (c[n] through a copy per pair
+    of pipelines); 5 of 4 slots (c[n] through two levels of copies)."""
     rng = np.random.default_rng(16)
-    inits = rand_inits(rng, 16, depth=4)
-    dut = WindFarmReplay(16, slots=slots, init=inits, pool_words=64, max_delay=5, max_tap=2,
+    inits = rand_inits(rng, channels, depth=4)
+    dut = WindFarmReplay(channels, slots=slots, init=inits, pool_words=64, max_delay=5, max_tap=2,
                          interpolation="hold")
     T = dut.contract.refill_samples + 160         # past the caches' first fill
     xi, xq = rng.integers(-32768, 32768, T), rng.integers(-32768, 32768, T)
-    check(dut, inits, xi, xq, valid=(1, 1, 0), name="N=16")
+    check(dut, inits, xi, xq, valid=(1, 1, 0), name=f"N={channels}")
 
 
 @pytest.mark.parametrize("slots, interpolation", [(1, "hold"), (3, "hold"), (1, "fir"), (3, "fir")])
