@@ -81,11 +81,18 @@ class UARTBridge(wiring.Component):
                      is_version.eq(urx.data == CMD_VERSION), is_read.eq(urx.data == CMD_READ),
                      is_burst.eq(urx.data == CMD_BURST)]
         cmd_read, cmd_burst = Signal(), Signal()
-        # The reply queue has room for a byte in this clock, from a register:
-        # room for two in the clock before (the queue's level into the state
-        # was a latest path of a 16-channel, 100 MS/s build, 7.1 ns).
+        # The reply queue has room for a byte in this clock, from a register
+        # (the queue's level into the state was a latest path of a
+        # 16-channel, 100 MS/s build, 7.1 ns). A byte put in the queue enters
+        # it a clock later, from registers (the state's decode into the
+        # queue's level was 6.1 ns at 16 channels), so room is counted a
+        # clock before for three: the two in flight and this one.
         room = Signal()
-        m.d.sync += room.eq(txq.level < TX_FIFO_DEPTH - 1)
+        m.d.sync += room.eq(txq.level < TX_FIFO_DEPTH - 2)
+        put, put_byte = Signal(), Signal(8)
+        tx_put, tx_byte = Signal(), Signal(8)
+        m.d.sync += [tx_put.eq(put), tx_byte.eq(put_byte)]
+        m.d.comb += [txq.w_en.eq(tx_put), txq.w_data.eq(tx_byte)]
         addr = Signal(16)
         count = Signal(16)
         # count == 1, a clock behind count: read only in WRITE, which a DATA
@@ -199,14 +206,14 @@ class UARTBridge(wiring.Component):
                 # the byte selected by n, the word held: the reply queue's
                 # readiness enables two bits, not the whole word (bridge.data
                 # was among the 200 MHz build's late endpoints)
-                m.d.comb += [txq.w_data.eq(reply.word_select(n, 8)), txq.w_en.eq(room)]
+                m.d.comb += [put_byte.eq(reply.word_select(n, 8)), put.eq(room)]
                 with m.If(room):
                     m.d.sync += n.eq(n + 1)
                     with m.If(n == 3):
                         m.d.sync += [n.eq(0), self.frames.eq(self.frames + 1)]
                         m.next = "IDLE"
             with m.State("ACK"):
-                m.d.comb += [txq.w_data.eq(ACK), txq.w_en.eq(room)]
+                m.d.comb += [put_byte.eq(ACK), put.eq(room)]
                 with m.If(room):
                     m.d.sync += self.frames.eq(self.frames + 1)
                     m.next = "IDLE"
