@@ -126,12 +126,21 @@ def test_fir_reloads_and_forced_switches_match_model(seed, slots):
 
 
 def test_fir_clamps_rate_and_length():
+    """Around each bound, and with the bound's upper half and a lower half
+    above or below it (the register file compares the halves a clock
+    apart)."""
     dut = WindFarmReplay(1, **KW)
     a = dut.register_map.addr
-    ops = [(0, "w", a("PHASE_INC", 0), 1 << 31), (0, "w", a("LENGTH", 0), 3),
-           (1, "r", a("PHASE_INC", 0), 0), (1, "r", a("LENGTH", 0), 0)]
-    hi, hq, done = run_replay(dut, np.zeros(4, np.int64), np.zeros(4, np.int64), ops, (1,), (1,))
-    assert [v for k, kind, ad, v in done if kind == "r"] == [FIR_MAX_INCREMENT, FIR_MIN_LENGTH]
+    top, low = FIR_MAX_INCREMENT & ~0xFFFF, FIR_MAX_INCREMENT & 0xFFFF
+    cases = [("PHASE_INC", v, min(v, FIR_MAX_INCREMENT))
+             for v in (1 << 31, FIR_MAX_INCREMENT - 1, FIR_MAX_INCREMENT, FIR_MAX_INCREMENT + 1,
+                       top | 0xFFFF, top | (low - 1), top - 1, top + 0x10000, (1 << 32) - 1, 0)]
+    cases += [("LENGTH", v, max(v, FIR_MIN_LENGTH)) for v in (3, 0, FIR_MIN_LENGTH - 1, FIR_MIN_LENGTH, FIR_MIN_LENGTH + 1)]
+    ops = [op for k, (name, v, _) in enumerate(cases)
+           for op in ((k, "w", a(name, 0), v), (k, "r", a(name, 0), 0))]
+    T = len(cases) + 4
+    hi, hq, done = run_replay(dut, np.zeros(T, np.int64), np.zeros(T, np.int64), ops, (1,), (1,))
+    assert [v for k, kind, ad, v in done if kind == "r"] == [want for _, _, want in cases]
 
 
 def test_fir_interpolates_a_band_limited_tone():
