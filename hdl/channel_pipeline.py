@@ -739,7 +739,8 @@ class ChannelPipeline(wiring.Component):
             bank = addr[in_bank:]
             if clocks >= 2:
                 words = [_delay(m, w, 1, f"{name}_bank{k}", data=True) for k, w in enumerate(words)]
-                bank = _delay(m, bank, 1, f"{name}_bank", data=True)
+                if len(words) > 1:
+                    bank = _delay(m, bank, 1, f"{name}_bank", data=True)
             if clocks == 3:
                 m.d.sync += word.eq(_select_registered(m, words, bank, f"{name}_sel"))
             else:
