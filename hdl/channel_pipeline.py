@@ -451,7 +451,7 @@ class ChannelPipeline(wiring.Component):
             "step": PHASE_FRAC_BITS + 1, "left_one": 1, "left1": range(c.pool_words), "len0": 1,
             "n_len_m1": range(c.pool_words), "n_inc": PHASE_FRAC_BITS, "n_base": c.pool_address_width,
             "n_last": 1, "n_fstart": range(c.pool_words),
-            "grant": 1, "f_idx_next": range(c.pool_words), "f_addr_next": c.pool_address_width,
+            "grant": 1, "fwrap": 1, "f_idx1": range(c.pool_words), "f_addr1": c.pool_address_width,
             "start": 1, "issue": 1, "last_tap": 1, "release": 1, "jstep": 1,
             "refill1": range(R + 1), "refill_more": 1, "refill_jobs": 1,
             # the sums stage B selects from (its adders were most of its
@@ -525,12 +525,9 @@ class ChannelPipeline(wiring.Component):
         m.d.comb += present_v.eq(present.bit_select(vslot, 1) if M > 1 else present[0])
         want = (st.ahead < CACHE_FILL_WORDS) & ~st.restart & present_v
         a["grant"] = offer & want
-        # the fetcher's next index and address, wrapped here: their selection
-        # in stage B by the wrap too was the largest group of the 64-channel
-        # build's late endpoints (the fetcher's next address, 5.8 ns)
-        fwrap = st.f_idx == st.len_m1
-        a["f_idx_next"] = Mux(fwrap, 0, st.f_idx + 1)
-        a["f_addr_next"] = Mux(fwrap, st.base, st.f_addr + 1)
+        a["fwrap"] = st.f_idx == st.len_m1
+        a["f_idx1"] = st.f_idx + 1
+        a["f_addr1"] = st.f_addr + 1
         a["refill1"] = st.refill - 1
         a["refill_more"] = st.refill != 1
         a["refill_jobs"] = st.refill <= FIR_REFILL_SAMPLES + 1
@@ -606,7 +603,8 @@ class ChannelPipeline(wiring.Component):
                              nxt.f_pos.eq(0), nxt.ahead.eq(0), nxt.cpos.eq(0)]
             with m.Else():
                 with m.If(x.grant):
-                    m.d.comb += [nxt.f_idx.eq(x.f_idx_next), nxt.f_addr.eq(x.f_addr_next),
+                    m.d.comb += [nxt.f_idx.eq(Mux(x.fwrap, 0, x.f_idx1)),
+                                 nxt.f_addr.eq(Mux(x.fwrap, x.base, x.f_addr1)),
                                  nxt.f_pos.eq(x.f_pos1)]
                 m.d.comb += [nxt.ahead.eq(Mux(x.grant == x.release, x.ahead,
                                               Mux(x.grant, x.ahead_up, x.ahead_dn))),
