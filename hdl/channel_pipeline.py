@@ -903,9 +903,10 @@ class ChannelPipeline(wiring.Component):
         # In logic, not a block RAM (the block RAMs are the pool's and the
         # delays'), and in three registered levels: ROMs of the address's low
         # bits (a 6-input function per bit), then a multiplexer of their
-        # outputs by the high bits in two (``_select_registered``). The whole 9-input ROM in one clock was the
-        # pipeline's worst path (7.9 ns); 7-input ROMs, four LUTs in series,
-        # were still among the 200 MHz build's late endpoints (6.9 ns).
+        # outputs by the high bits in two (``_select_registered``). The whole
+        # 9-input ROM in one clock was the pipeline's worst path (7.9 ns);
+        # 7-input ROMs, four LUTs in series, were still among the 200 MHz
+        # build's late endpoints (6.9 ns).
         addr_bits = TB + PB
         low_bits = addr_bits - COEF_ROM_SPLIT_BITS
         full = Cat(st.tap, st.cphase)
