@@ -598,14 +598,10 @@ class ChannelPipeline(wiring.Component):
                 m.d.comb += [nxt.refill.eq(x.refill1), nxt.muting.eq(x.refill_more),
                              nxt.jobs_ok.eq(x.refill_jobs)]
             # the fetcher: restart (the visit after a switch), or one fetch
+            # (its index, address and position below)
             with m.If(x.restart):
-                m.d.comb += [nxt.f_idx.eq(x.f_start), nxt.f_addr.eq(x.f_addr0),
-                             nxt.f_pos.eq(0), nxt.ahead.eq(0), nxt.cpos.eq(0)]
+                m.d.comb += [nxt.ahead.eq(0), nxt.cpos.eq(0)]
             with m.Else():
-                with m.If(x.grant):
-                    m.d.comb += [nxt.f_idx.eq(Mux(x.fwrap, 0, x.f_idx1)),
-                                 nxt.f_addr.eq(Mux(x.fwrap, x.base, x.f_addr1)),
-                                 nxt.f_pos.eq(x.f_pos1)]
                 m.d.comb += [nxt.ahead.eq(Mux(x.grant == x.release, x.ahead,
                                               Mux(x.grant, x.ahead_up, x.ahead_dn))),
                              nxt.cpos.eq(Mux(x.release, x.cpos1, x.cpos))]
@@ -622,6 +618,26 @@ class ChannelPipeline(wiring.Component):
                                             Mux(x.jstep, x.jobs_up, x.jobs_dn)))
                 with m.If(x.jstep):
                     m.d.comb += [nxt.u0.eq(x.u1), nxt.u1.eq(x.u2)]
+        # The fetcher's index, address and position, each field selected by a
+        # copy of its own of the selects (kept): one register of each select
+        # for all ~50 bits sat far from most of them (the fetch address was
+        # among the 16- and 64-channel builds' late endpoints, 5.6-6.2 ns).
+        for field, restart_value, fetch_value in (
+                ("f_idx", x.f_start, Mux(x.fwrap, 0, x.f_idx1)),
+                ("f_addr", x.f_addr0, Mux(x.fwrap, x.base, x.f_addr1)),
+                ("f_pos", 0, x.f_pos1)):
+            sel = Cat(switch, st.restart, a["grant"])
+            if M == 1:
+                f_switch, f_restart, f_grant = sel
+            else:
+                # at power-up the slot in stage B restarts its fetcher (mid's init)
+                f_switch, f_restart, f_grant = kept_register(m, platform, sel, f"{field}_sel", init=0b010,
+                                                             reset=True)
+            with m.If(~f_switch):
+                with m.If(f_restart):
+                    m.d.comb += getattr(nxt, field).eq(restart_value)
+                with m.Elif(f_grant):
+                    m.d.comb += getattr(nxt, field).eq(fetch_value)
         if fir:
             # a finished job's U value (never in the same visit as a J step:
             # the increment limit, FIR_MIN_SAMPLES_PER_STEP)
@@ -935,7 +951,7 @@ class ChannelPipeline(wiring.Component):
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap == T - 1),
                      f0.dest.eq(st.dest)]
-        fmul = _delay(m, f0, 6, "mac_f")                     # with the multiplier's output
+        fmul = _delay(m, f0, 7, "mac_f")                     # with the multiplier's output, again
         fprod = _delay(m, fmul, 1, "mac_fp")                 # with the product in fabric
         fhigh = _delay(m, fprod, 1, "mac_fh")               # with the upper half's sum
         resf = _delay(m, fhigh, 3, "mac_resf")              # with the result
@@ -945,9 +961,14 @@ class ChannelPipeline(wiring.Component):
             m.submodules[f"fir_mul_{part}"] = mul
             m.d.comb += [mul.en.eq(1), mul.a.eq(getattr(word, part)),
                          mul.b.eq(kept_register(m, platform, coef, f"mac_coef_{part}").as_signed())]
-            # the product, 0 where no tap is issued (its register's reset)
+            # The multiplier's output in a register beside it, then the
+            # product, 0 where no tap is issued (its register's reset), beside
+            # the accumulator. The multiplier's output straight into that
+            # register was the 16-channel build's worst path: one route of
+            # 5.1 ns from a multiplier placed 74 tiles away.
+            mul_out = _delay(m, mul.o, 1, f"fir_mul_out_{part}", data=True)
             prod = Signal(signed(FIR_ACC_WIDTH), name=f"fir_prod_{part}", reset_less=True)
-            m.d.sync += prod.eq(_cleared(mul.o, ~fmul.valid))
+            m.d.sync += prod.eq(_cleared(mul_out, ~fmul.valid))
             # One accumulator per slot: this slot's, updated, then round the
             # ring (M clocks) back to its next tap. In two halves, the upper a
             # clock after the lower with its carry (the 38-bit sum in one clock
@@ -988,9 +1009,9 @@ class ChannelPipeline(wiring.Component):
             m.d.sync += [over.eq(acc >= ((hi + 1) << FIR_COEF_FRAC) - half),
                          under.eq(acc < (lo << FIR_COEF_FRAC) - half)]
             m.d.sync += getattr(res, part).eq(Mux(over, hi, Mux(under, lo, rounded)))
-        # addresses, ROM levels (the word beside), multiplier in and out, product,
-        # the accumulator's two halves, round, saturate
-        assert 1 + 3 + 2 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
+        # addresses, ROM levels (the word beside), multiplier in and out, its
+        # output again, product, the accumulator's two halves, round, saturate
+        assert 1 + 3 + 2 + 1 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
         pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
         res_d = _delay(m, res, pad, "mac_res", data=True)
         resf_d = _delay(m, resf, pad, "mac_resf")

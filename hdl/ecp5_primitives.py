@@ -63,9 +63,10 @@ def is_ecp5(platform) -> bool:
     return platform is not None and getattr(platform, "family", None) == "ecp5"
 
 
-def kept_register(m, platform, value, name, *, reset=False, domain="sync"):
-    """``value`` one clock of ``domain`` later, in a register of its own (with
-    ``reset``, cleared by the domain's synchronous reset; else not reset).
+def kept_register(m, platform, value, name, *, reset=False, init=0, domain="sync"):
+    """``value`` one clock of ``domain`` later, in a register of its own, its
+    value at power-up ``init`` (with ``reset``, also after the domain's
+    synchronous reset; else not reset).
 
     Copies of one register that differ in nothing are one register to Yosys
     (its ``opt_merge`` merges flip-flops with the same inputs; a ``keep``
@@ -76,14 +77,15 @@ def kept_register(m, platform, value, name, *, reset=False, domain="sync"):
     other platforms a plain register.
     """
     value = Value.cast(value)
-    q = Signal(len(value), name=name, reset_less=not reset)
+    q = Signal(len(value), name=name, reset_less=not reset, init=init)
     if not is_ecp5(platform):
         m.d[domain] += q.eq(value)
         return q
     for k in range(len(value)):
+        # REGSET: the bit's value at power-up and after LSR (the synchronous reset)
         m.submodules[f"{name}_ff{k}"] = Instance(
             "TRELLIS_FF", p_GSR="DISABLED", p_CEMUX="1", p_CLKMUX="CLK", p_LSRMUX="LSR",
-            p_REGSET="RESET", p_SRMODE="LSR_OVER_CE",         # LSR: a synchronous reset to 0
+            p_REGSET="SET" if (init >> k) & 1 else "RESET", p_SRMODE="LSR_OVER_CE",
             i_CLK=ClockSignal(domain), i_LSR=ResetSignal(domain) if reset else Const(0),
             i_DI=value[k], o_Q=q[k])
     return q

@@ -311,7 +311,7 @@ class WindFarmReplay(wiring.Component):
         pool = None if sdram else StreamPool(c.pool_words, pool_tag.size, init=self._pool_init,
                                              reserve_sites=per_row, block_sites=win_mode[1] if win_mode else 0)
         reserved = pool and pool.reserved_sites(platform)
-        window_blocks = (pool and pool.free_blocks(platform)) or []
+        window_blocks = (pool and pool.free_blocks(platform, P)) or []
         common_bits = DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
         common_groups = -(-2 * INPUT_WIDTH // common_bits)
         m.submodules.common = common = DelayLine(

@@ -185,16 +185,26 @@ class StreamPool(wiring.Component):
         plan = self._floorplan(platform)
         return plan and plan[1]
 
-    def free_blocks(self, platform):
-        """The blocks of ``block_sites`` neighbouring free sites, taken from
-        the rows in turn (the first block of every row, then the second...),
-        so that RAMs placed in them in order spread over the rows; ``None``
-        where the banks are not placed or ``block_sites`` is 0."""
+    def free_blocks(self, platform, count):
+        """``count`` blocks of ``block_sites`` neighbouring free sites (fewer
+        if there are not so many), taken from the rows in turn, and in each
+        row spread evenly along it: RAMs placed in them in order spread over
+        the chip, so that the logic around each can have a region of its
+        own. (The first blocks of each row, all at its left end, put four of
+        a 16-channel build's eight windows 50-70 columns from their
+        pipelines' logic.) ``None`` where the banks are not placed or
+        ``block_sites`` is 0."""
         plan = self._floorplan(platform)
         if not plan or not self._block:
             return None
         per_row = plan[2]
-        return [row[j] for j in range(max(map(len, per_row))) for row in per_row if j < len(row)]
+        taken = [0] * len(per_row)
+        for i in range(min(count, sum(map(len, per_row)))):
+            r = min((r for r in range(len(per_row)) if taken[r] < len(per_row[r])),
+                    key=lambda r: (taken[r], r))
+            taken[r] += 1
+        spread = [[row[int((i + 0.5) * len(row) / n)] for i in range(n)] for row, n in zip(per_row, taken)]
+        return [row[j] for j in range(max(taken, default=0)) for row in spread if j < len(row)]
 
     def _floorplan(self, platform):
         """``(sites[group][bank], reserved[row], blocks[row][block])``: the

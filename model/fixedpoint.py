@@ -161,7 +161,7 @@ FIR_COEF_FRAC = 16
 #: Accumulator of one U value: 16 x 18 bit products, FIR_TAPS of them.
 FIR_ACC_WIDTH = STREAM_WIDTH + FIR_COEF_WIDTH + (FIR_TAPS - 1).bit_length()
 #: Samples between two advances of J, at least: the serial MAC needs
-#: ``mac_visits(slots)`` (at most 22, at M = 1) from an advance to the next U value in
+#: ``mac_visits(slots)`` (at most 23, at M = 1) from an advance to the next U value in
 #: the channel's state.
 FIR_MIN_SAMPLES_PER_STEP = 24
 #: Largest PHASE_INC of a FIR build (5592405: stream rate <= sample rate / 768).
@@ -380,9 +380,10 @@ CMULT_CYCLES = {"4mult": 5, "3mult": 6}
 GAIN_CYCLES = 5
 #: Clocks from the visit to the FIR MAC's rounded, saturated U value (the
 #: cache's and the coefficient ROM's registered addresses, the ROM's three
-#: levels with the word beside, multiplier in and out, the product in fabric,
-#: the accumulator's lower and upper halves, round, saturate).
-MAC_RESULT_CYCLES = 11
+#: levels with the word beside, multiplier in and out, its output again in a
+#: register beside it, the product in fabric, the accumulator's lower and
+#: upper halves, round, saturate).
+MAC_RESULT_CYCLES = 12
 
 
 def reset_slot(slots: int) -> int:

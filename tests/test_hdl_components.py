@@ -213,32 +213,40 @@ def test_the_common_line_lies_in_a_block_the_pool_keeps_free():
         assert len(banks) == 40
 
 
-def test_each_window_lies_in_a_block_of_its_own():
+@pytest.mark.parametrize("channels, slots, banks, per_row", [(64, 10, 5, [2, 2, 2, 1]), (16, 2, 4, [2, 2, 2, 2])])
+def test_each_window_lies_in_a_block_of_its_own(channels, slots, banks, per_row):
     """With the pool's banks placed, the sites it leaves are blocks of
     neighbouring sites, one for each pipeline's window, taken from the rows
-    in turn: at 64 channels (seven pipelines) every window's 4 block RAMs in
-    4 neighbouring sites of one row, the windows spread over the four rows,
-    no site shared with the pool, the common line or another window."""
+    in turn: at 64 channels (seven pipelines) and 16 channels at M = 2
+    (eight) every window's 4 block RAMs in 4 neighbouring sites of one row,
+    the windows spread over the four rows, two windows of one row in
+    different halves of it, no site shared with the pool, the common line
+    or another window."""
     import re
     from amaranth.back import rtlil
     from rast.hdl.ecp5_primitives import block_ram_rows
     from rast.hdl.replay_top import WindFarmReplay
     rows = block_ram_rows(_85F())
-    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(64, slots=10, pool_words=5 * POOL_BANK_WORDS,
+    P = -(-channels // slots)
+    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(channels, slots=slots, pool_words=banks * POOL_BANK_WORDS,
                                                      max_delay=8190, max_tap=2046), platform=_85F()))
-    assert len(bels) == 160 + 16 + 7 * 4 and None not in bels.values() and len(set(bels.values())) == len(bels)
+    assert len(bels) == banks * 32 + 16 + P * 4 and None not in bels.values()
+    assert len(set(bels.values())) == len(bels)
     windows = {}
     for path, bel in bels.items():
         if "window" in path:
             windows.setdefault(int(re.search(r"pipe(\d+)", path).group(1)), []).append(bel)
-    assert sorted(windows) == list(range(7))
-    used_rows = []
+    assert sorted(windows) == list(range(P))
+    starts = {r: [] for r in range(4)}
     for p, sites in windows.items():
         (row,) = {k for k, r in enumerate(rows) for bel in sites if bel in r}
         index = sorted(rows[row].index(bel) for bel in sites)
         assert index == list(range(index[0], index[0] + 4)), (p, index)
-        used_rows.append(row)
-    assert [used_rows.count(r) for r in range(4)] == [2, 2, 2, 1]
+        starts[row].append(index[0])
+    assert [len(starts[r]) for r in range(4)] == per_row
+    for r, s in starts.items():
+        if len(s) == 2:
+            assert min(s) < 26 <= max(s), (r, s)
 
 
 def test_stream_pool_no_floorplan_where_rows_lack_room():
