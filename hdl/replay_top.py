@@ -19,7 +19,7 @@ from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
                                 POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
-                                REGISTER_STAGING, WRITE_STAGING, take_interval, tree_levels, visit_cycles,
+                                REGISTER_STAGING, WRITE_STAGING, take_interval, tree_levels, TREE_LEVEL_CYCLES, visit_cycles,
                                 reset_slot)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
@@ -481,14 +481,22 @@ class WindFarmReplay(wiring.Component):
                          self.underflow.eq(regs.underflow)]
 
         # ---- the sum over the pipelines, saturation, the output FIFO --------------
-        assert ACCEPT_LAG + pipes[0].sum_cycles + tree_levels(P) + 2 == K
+        assert ACCEPT_LAG + pipes[0].sum_cycles + TREE_LEVEL_CYCLES * tree_levels(P) + 2 == K
         level = [pl.sum for pl in pipes]
         SW = c.sum_width
         depth = 0
         while len(level) > 1:
             nxt = []
             for j in range(0, len(level), 2):
-                pair = level[j:j + 2]
+                # each operand again in a register beside the adder (the pair's
+                # pipelines may be far apart), then the sum
+                pair = []
+                for k, v in enumerate(level[j:j + 2]):
+                    for d in range(TREE_LEVEL_CYCLES - 1):
+                        r = Signal.like(v, name=f"tree{depth}_{j // 2}_in{k}_d{d + 1}", reset_less=True)
+                        m.d.sync += r.eq(v)
+                        v = r
+                    pair.append(v)
                 s_ = Signal(IQ(SW), name=f"tree{depth}_{j // 2}", reset_less=True)
                 m.d.sync += [s_.re.eq(sum(v.re for v in pair)), s_.im.eq(sum(v.im for v in pair))]
                 nxt.append(s_)

@@ -95,7 +95,7 @@ import math as _math
 __all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "ACCEPT_LAG", "visit_cycles", "WORD_CYCLES",
             "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "REGISTER_STAGING",
             "WRITE_STAGING", "TAKE_SPACING", "take_interval", "reset_slot",
-            "tree_levels", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
+            "tree_levels", "TREE_LEVEL_CYCLES", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
             "FIR_LEAD", "FIR_KAISER_BETA", "FIR_CUTOFF", "FIR_COEF_WIDTH", "FIR_COEF_FRAC", "FIR_ACC_WIDTH", "FIR_MAX_INCREMENT",
@@ -432,8 +432,15 @@ def take_interval(slots: int) -> int:
 
 
 def tree_levels(pipelines: int) -> int:
-    """Registered levels of the adder tree over the pipelines' period sums."""
+    """Levels of the adder tree over the pipelines' period sums."""
     return (pipelines - 1).bit_length()
+
+
+#: Clocks per level of the adder tree: the operands again in registers beside
+#: the adder, then the sum. (The sum straight from the operands' registers
+#: was among the 16-channel build's late paths once its pipelines were
+#: spread over the chip: 5.7 ns, the halves' sums 80 columns apart.)
+TREE_LEVEL_CYCLES = 2
 
 
 def mac_merge_cycles(slots: int) -> int:
@@ -458,7 +465,7 @@ def engine_output_cycles(slots: int, pipelines: int, cmult_form: str = "4mult") 
     edge): the pipelines' period start, the last slot's visit, word, complex
     product, gain, slot accumulator, adder tree, saturation flags and clip."""
     return (ACCEPT_LAG + (slots - 1) + visit_cycles(slots) + WORD_CYCLES + CMULT_CYCLES[cmult_form]
-            + GAIN_CYCLES + 1 + tree_levels(pipelines) + 2)
+            + GAIN_CYCLES + 1 + TREE_LEVEL_CYCLES * tree_levels(pipelines) + 2)
 
 
 CMULT_FORMS = ("4mult", "3mult")
