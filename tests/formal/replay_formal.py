@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from rast.hdl.channel_pipeline import ChannelPipeline, SlotInit   # noqa: E402
 from rast.hdl.delay_line import DelayLine                         # noqa: E402
 from rast.hdl.registers import channel_regs_layout, slot_values_layout  # noqa: E402
-from rast.model.fixedpoint import ReplayContract                  # noqa: E402
+from rast.model.fixedpoint import ReplayContract, CACHE_FILL_WORDS  # noqa: E402
 from rast.model.regmap import register_map                        # noqa: E402
 
 
@@ -67,7 +67,8 @@ class StreamAddressCheck(Elaboratable):
             offset = Signal(aw, name=f"offset{k}")
             m.d.comb += [offset.eq(st.f_addr - st.base),
                          Assert(st.len_m1 < D), Assert(st.left <= st.len_m1),
-                         Assert(st.last == (st.left == 0))]
+                         Assert(st.last == (st.left == 0)),
+                         Assert(st.room == (st.ahead < CACHE_FILL_WORDS))]
             with m.If(~st.restart):
                 m.d.comb += [Assert(st.f_idx <= st.len_m1), Assert(offset == st.f_idx)]
         # the request the pipeline sends is one its state allowed (registered a clock later)
