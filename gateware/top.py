@@ -256,7 +256,15 @@ class SampleIO(wiring.Component):
 
         # DAC: one sample per period, taken in its last clock, I then Q.
         y = Signal(IQ(OUTPUT_WIDTH))
-        m.d.comb += self.dac.ready.eq(in_slot([M - 1]))
+        if M > 1:
+            # decided a clock ahead into a register: from the slot's compare,
+            # through the output FIFO's read, into its counters' enables was
+            # among a 16-channel build's latest paths (5.6 ns)
+            dac_ready = Signal(init=0 == M - 1, name="dac_ready")
+            m.d[d] += dac_ready.eq(in_slot([M - 1], ahead=1))
+        else:
+            dac_ready = in_slot([M - 1])
+        m.d.comb += self.dac.ready.eq(dac_ready)
         with m.If(self.dac.ready):
             m.d[d] += y.eq(Mux(self.dac.valid, self.dac.payload, 0))
         # which half each edge drives, decided a clock ahead into registers
