@@ -260,7 +260,7 @@ class SampleIO(wiring.Component):
             # decided a clock ahead into a register: from the slot's compare,
             # through the output FIFO's read, into its counters' enables was
             # among a 16-channel build's latest paths (5.6 ns)
-            dac_ready = Signal(init=0 == M - 1, name="dac_ready")
+            dac_ready = Signal(name="dac_ready")        # slot 0 after reset: not the last
             m.d[d] += dac_ready.eq(in_slot([M - 1], ahead=1))
         else:
             dac_ready = in_slot([M - 1])

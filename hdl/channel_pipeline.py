@@ -636,11 +636,11 @@ class ChannelPipeline(wiring.Component):
         # visit grants nothing and restarts them, and what they hold in
         # between is never read. (The switch's three levels of logic into
         # the copies were the 16-channel build's latest path, 6.5 ns.)
+        sel = Cat(st.restart, a["grant"])
         for field, restart_value, fetch_value in (
                 ("f_idx", x.f_start, Mux(x.fwrap, 0, x.f_idx1)),
                 ("f_addr", x.f_addr0, Mux(x.fwrap, x.base, x.f_addr1)),
                 ("f_pos", 0, x.f_pos1)):
-            sel = Cat(st.restart, a["grant"])
             if M == 1:
                 f_restart, f_grant = sel
             else:

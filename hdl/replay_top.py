@@ -406,11 +406,9 @@ class WindFarmReplay(wiring.Component):
         # grant (visit) -> pipeline's request registers -> (the group's request
         # register, beyond REQUEST_GROUP pipelines) -> this register -> the
         # pool -> fill_* -> (the pair's copy, from three pipelines) -> the
-        # pipeline's fill register -> the cache
-        # From three pipelines the answer passes a copy for each pair of
-        # pipelines on its way (kept): from the one register into every
-        # pipeline's copy was 5.7 ns of one route at 16 channels, once the
-        # pipelines were spread over the chip.
+        # pipeline's fill register -> the cache. The pair's copies are kept
+        # registers: from the one register into every pipeline's copy was
+        # 5.7 ns of one route at 16 channels, the pipelines spread over the chip.
         fill_pairs = P > 2
         if not sdram:
             assert 2 + REQUEST_CYCLES + grouped + pool.latency + 1 + fill_pairs <= POOL_FETCH_CYCLES, \

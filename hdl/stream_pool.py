@@ -199,7 +199,7 @@ class StreamPool(wiring.Component):
             return None
         per_row = plan[2]
         taken = [0] * len(per_row)
-        for i in range(min(count, sum(map(len, per_row)))):
+        for _ in range(min(count, sum(map(len, per_row)))):
             r = min((r for r in range(len(per_row)) if taken[r] < len(per_row[r])),
                     key=lambda r: (taken[r], r))
             taken[r] += 1
