@@ -44,10 +44,6 @@ class OutputFIFO(wiring.Component):
             "overrun": Out(1),
         })
 
-    @property
-    def depth(self):
-        return self._depth
-
     def elaborate(self, platform):
         m = Module()
         D = self._depth
