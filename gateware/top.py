@@ -2,7 +2,7 @@
 
 :class:`ReplaySystem` is the board-independent part (bridge + replay block);
 the simulation tests drive it directly. :class:`SampleIO` is the board's
-sample path around it (DDR cells and one fabric register each way),
+sample path around it (DDR cells, one fabric register in, two out),
 :class:`BoardCore` the two together: everything of the board but the PLL,
 which is what ``tests/test_cosim_board_io.py`` simulates with a clock from
 the testbench. :class:`BoardTop` adds the clocking, the pins and the LEDs of
@@ -145,8 +145,8 @@ class SampleIO(wiring.Component):
     (``adc_clk``, ``dac_clk``) and the DAC's I marker (``dac_iq``) are made
     from the replay block's slot counter: a pattern high for the first
     ``slots`` half clocks of each period (the first half of the sample), low
-    for the rest, registered and driven through an ``ODDRX1F`` like the DAC's
-    data, so clocks and data leave the pins together (at ``slots`` = 1 it is
+    for the rest, registered twice and driven through an ``ODDRX1F`` like
+    the DAC's data, so clocks and data leave the pins together (at ``slots`` = 1 it is
     the fabric clock forwarded). No clock crosses to another domain.
 
     ADC: one ``io.DDRBuffer`` (an ``IDDRX1F`` per pin, taking the pins on
@@ -230,13 +230,21 @@ class SampleIO(wiring.Component):
         # decoded from a copy of the slot of their own, beside them (from
         # ``before``, 6.0 ns at two pipelines): kept too, so its reset to 0
         # stands for ``before``'s ``was``.
+        # Every pin's pattern and data leave through a second register of
+        # their own (``PIN_LAG``), which the placer puts beside the pin's
+        # output cell: the DAC's 16 data pins span 80 rows of the chip's
+        # edge, and from one register per bit near the output FIFO the route
+        # to the cell was up to 5.4 ns (a 16-channel build's latest path).
+        def to_pin(value, name, reset):
+            return kept_register(m, platform, value, f"{name}_pin", reset=reset, domain=d)
+
         for name, cell in (("adc_clk", adc_clk), ("dac_clk", dac_clk), ("dac_iq", dac_iq)):
             own = kept_register(m, platform, self.slot ^ was, f"{name}_slot", reset=True,
                                 domain=d) if M > 1 else None
-            m.d.comb += [cell.o[0].eq(kept_register(m, platform, in_slot(first_i, slot_before=own),
-                                                    f"{name}_hi0", reset=True, domain=d)),
-                         cell.o[1].eq(kept_register(m, platform, in_slot(second_i, slot_before=own),
-                                                    f"{name}_hi1", reset=True, domain=d))]
+            for half, in_half in enumerate((first_i, second_i)):
+                bit = kept_register(m, platform, in_slot(in_half, slot_before=own),
+                                    f"{name}_hi{half}", reset=True, domain=d)
+                m.d.comb += cell.o[half].eq(to_pin(bit, f"{name}_hi{half}", reset=True))
 
         # ADC: the pin clock's rising edge is PIN_LAG clocks after the slot-0
         # clock that made it; the IDDRX1F shows a pin sample the clock after.
@@ -279,7 +287,8 @@ class SampleIO(wiring.Component):
             sel0, sel1 = in_slot(first_i), in_slot(second_i)
         d0, d1 = Signal(signed(OUTPUT_WIDTH)), Signal(signed(OUTPUT_WIDTH))
         m.d[d] += [d0.eq(Mux(sel0, y.re, y.im)), d1.eq(Mux(sel1, y.re, y.im))]
-        m.d.comb += [dac_data.o[0].eq(d0), dac_data.o[1].eq(d1)]
+        m.d.comb += [dac_data.o[0].eq(to_pin(d0, "dac_d0", reset=False)),
+                     dac_data.o[1].eq(to_pin(d1, "dac_d1", reset=False))]
         return m
 
 

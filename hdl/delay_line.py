@@ -1,6 +1,6 @@
 """A RAM delay line indexed by step: written once per step, read at any tap."""
 
-from amaranth.hdl import Module, Signal, Cat, unsigned
+from amaranth.hdl import Module, Signal, Cat, Const, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -149,13 +149,24 @@ class DelayLine(wiring.Component):
         m.submodules.mem = mem = RegisteredRAM(self._width, self._depth, addr_reg=True)
         assert mem.latency == self.latency
         m.d.comb += [mem.w_en.eq(self.w_en), mem.w_addr.eq(self.w_index), mem.w_data.eq(self.w_data),
-                     mem.r_en.eq(1), mem.r_addr.eq(self.r_index - self._lag - self.r_delay),
+                     mem.r_en.eq(1), mem.r_addr.eq(self._read_address()),
                      self.o.eq(mem.r_data)]
         return m
 
+    def _read_address(self):
+        """``r_index - lag - r_delay`` modulo the depth, written as ``r_index +
+        ~r_delay + (1 - lag)`` (−x − 1 = ~x): at the lines' lag of 1 one carry
+        chain instead of two (the two in front of the read address registers
+        were among a 64-channel build's late paths, 5.3 ns)."""
+        bits = len(Signal(range(self._depth)))
+        not_delay = ~Cat(self.r_delay, Const(0, bits - len(self.r_delay)))
+        total = self.r_index + not_delay
+        offset = (1 - self._lag) % self._depth
+        return (total + offset)[:bits] if offset else total[:bits]
+
     def _elaborate_groups(self, m, platform):
         r_addr = Signal(range(self._depth))
-        m.d.comb += r_addr.eq(self.r_index - self._lag - self.r_delay)
+        m.d.comb += r_addr.eq(self._read_address())
         groups = -(-self._width // self._group_bits)
         if self._address_copies is None:       # a register per group
             addrs = [kept_register(m, platform, r_addr, f"mem_bits{g}_r_addr")

@@ -227,7 +227,7 @@ class RegisterFile(wiring.Component):
         return self._rmap
 
     #: Registered levels of the read-back multiplexer behind the sampling points.
-    SELECT_LEVELS = 3
+    SELECT_LEVELS = 4
 
     @property
     def read_latency(self) -> int:
@@ -735,8 +735,9 @@ class RegisterFile(wiring.Component):
         """The word of the register a read addresses, sampled at stage
         ``delay``: per group of channels (and the global registers), its
         registers selected in groups into registers at that stage, then
-        ORed into a register; the groups' words ORed into a register, then
-        delayed to stage ``end`` (SELECT_LEVELS registered levels). 0 when
+        ORed into a register; the groups' words ORed into registers, four
+        groups to one, then all ORed into a register, and delayed to stage
+        ``end`` (SELECT_LEVELS registered levels). 0 when
         the access is no read or addresses none of ``words`` ((name, unit,
         fn(op): the access is of this word, word) each; ``at(unit, k)``:
         stage k as the word's group of channels sees it)."""
@@ -771,8 +772,16 @@ class RegisterFile(wiring.Component):
             u = Signal(32, name=f"rd{delay}_{tag}")
             m.d.sync += u.eq(_or(firsts))
             per_unit.append(u)
+        # four groups' words to a register, then all (all groups' words
+        # into one register was late in all three seeds of a 16-channel
+        # build, 5.2-5.6 ns)
+        quads = []
+        for q in range(0, len(per_unit), 4):
+            v = Signal(32, name=f"rd{delay}_q{q // 4}")
+            m.d.sync += v.eq(_or(per_unit[q:q + 4]))
+            quads.append(v)
         out = Signal(32, name=f"rd{delay}_all")
-        m.d.sync += out.eq(_or(per_unit))
+        m.d.sync += out.eq(_or(quads))
         for k in range(delay + self.SELECT_LEVELS, end):
             nxt = Signal(32, name=f"rd{delay}_d{k}")
             m.d.sync += nxt.eq(out)

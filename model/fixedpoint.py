@@ -487,8 +487,9 @@ CMULT_FORMS = ("4mult", "3mult")
 # while the clock is high from E + 2 (D1 while it is low). Amaranth's
 # lowering says the same ("the ODDRX1F buffer has two additional pipeline
 # stages"; only the OE gets registers of its own). So a pattern bit computed
-# in the clock starting at edge c is registered at c + 1, taken by the cell
-# at c + 2 and on the pin from edge c + 4 (PIN_LAG).
+# in the clock starting at edge c is registered at c + 1, registered again
+# beside its pin at c + 2, taken by the cell at c + 3 and on the pin from
+# edge c + 5 (PIN_LAG).
 #
 # Neither cell has a model in Yosys's ECP5 library (``cells_bb.v`` declares
 # both as black boxes); ``sim/board_io.py`` models them register for register
@@ -503,8 +504,9 @@ DDR_INPUT_LATENCY = 2
 #: ODDRX1F: edges from the one that takes D0/D1 to the one from which D0 is on the pin.
 DDR_OUTPUT_LATENCY = 2
 #: Fabric clocks from the clock that computes a pin pattern bit to the edge
-#: from which the pin shows it: the fabric register, the cell's input edge, its two stages.
-PIN_LAG = 2 + DDR_OUTPUT_LATENCY
+#: from which the pin shows it: the fabric register, the register beside the
+#: pin, the cell's input edge, its two stages.
+PIN_LAG = 3 + DDR_OUTPUT_LATENCY
 
 
 def board_input_latency(slots: int) -> int:

@@ -27,7 +27,7 @@ MODULE = "rast.sim.tb_board_io"
 BUILD = dict(channels=2, pool_words=16, max_delay=62, max_tap=6, interpolation="hold")
 SAMPLE_HZ = 20e6
 DIVISOR = 4
-DELAY = 40                       # samples: the windmill's delay_samples
+DELAY = 48                       # samples: the windmill's delay_samples (beyond M = 1's 43 with the converters)
 IMPULSE = (16384, -8192)         # (I, Q) on the ADC pins; the stream word is 32767 + 0j, gain 1.0
 ECHO = (16384, -8192)            # round_half_up(x * 32767, 15), gain 1.0: the same
 

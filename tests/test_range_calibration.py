@@ -113,16 +113,16 @@ def test_unknown_target_is_refused():
 
 
 def test_contract_states_the_board_latency():
-    # M = 1: ADC pins to the block 6 clocks (the pin clock's edge PIN_LAG 4 after
+    # M = 1: ADC pins to the block 7 clocks (the pin clock's edge PIN_LAG 5 after
     # its slot, the IDDRX1F and the sample register 2); the block L 2; its 27
     # clocks to the saturation register (4 pipelines: two tree levels of 2), the FIFO
     # and the DAC register 2
     c = ReplayContract(channels=4)
-    assert c.output_cycles == 27 and c.board_latency == 6 + 2 + 29
-    # M = 10: the same clocks, in whole periods: ceil(11 / 10) + 2 + ceil(41 / 10)
+    assert c.output_cycles == 27 and c.board_latency == 7 + 2 + 29
+    # M = 10: the same clocks, in whole periods: ceil(12 / 10) + 2 + ceil(41 / 10)
     c10 = ReplayContract(channels=64, slots=10)
     assert c10.board_latency == 2 + 2 + 5
-    assert c.to_dict()["board_latency_samples"] == 37
+    assert c.to_dict()["board_latency_samples"] == 38
     assert ReplayContract.from_dict(c.to_dict()) == c
     assert path_latency(c, "block", 5, 5) == c.latency
     assert path_latency(c, "board", 2, 3) == c.board_latency + 5
