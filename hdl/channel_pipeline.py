@@ -70,8 +70,11 @@ def _delay(m, sig, n, name, *, data=False):
     return sig
 
 
-#: Address bits of the FIR coefficient ROM's second level (2**k first-level ROMs).
-COEF_ROM_SPLIT_BITS = 3
+#: Address bits of the FIR coefficient ROM's second level (2**k first-level
+#: ROMs): 16 ROMs of 32 entries, a 5-input function per bit (one LUT and the
+#: slice's multiplexer). Eight of 64 entries were synthesised as three LUTs
+#: in series, the latest path of a 16-channel build (6.1 ns).
+COEF_ROM_SPLIT_BITS = 4
 
 #: The word cache in up to 2**k banks, by the slot's upper bits.
 CACHE_BANK_BITS = 3
@@ -146,9 +149,9 @@ def _select_registered(m, words, sel, name):
     """``words[sel]`` one clock later, no register gathering more than four
     words: groups of four selected into registers of their own (a 4:1
     multiplexer is one slice per bit), and the returned selection among the
-    (at most two) groups, for the caller's register. An 8:1 selection in one
+    (at most four) groups, for the caller's register. An 8:1 selection in one
     clock was the FIR's latest path at 64 channels (6.1 ns)."""
-    assert len(words) <= 8
+    assert len(words) <= 16
     if len(words) <= 4:
         return _delay(m, Array(words)[sel] if len(words) > 1 else words[0], 1, name, data=True)
     groups = [_delay(m, Array(words[g:g + 4])[sel[:2]], 1, f"{name}_group{g // 4}", data=True)
@@ -946,7 +949,7 @@ class ChannelPipeline(wiring.Component):
                 rom_init[(p << TB) | k] = v
         # In logic, not a block RAM (the block RAMs are the pool's and the
         # delays'), and in three registered levels: ROMs of the address's low
-        # bits (a 6-input function per bit), then a multiplexer of their
+        # bits (a 5-input function per bit), then a multiplexer of their
         # outputs by the high bits in two (``_select_registered``). The whole
         # 9-input ROM in one clock was the pipeline's worst path (7.9 ns);
         # 7-input ROMs, four LUTs in series, were still among the 200 MHz
