@@ -323,9 +323,7 @@ class WindFarmReplay(wiring.Component):
         assert common.depth == c.common_depth and common.latency - 1 + 1 == COMMON_OUT_CYCLES
         # c[n] registered once beside the line's RAMs (their output registers'
         # clock-to-out and a route to every pipeline in one clock were a latest
-        # path at 64 channels, 6.5-6.9 ns), then copied per pipeline
-        common_word = Signal.like(common.o, name="common_word", reset_less=True)
-        m.d.sync += common_word.eq(common.o)
+        # path at 64 channels, 6.5-6.9 ns), then copied per pipeline (below)
         # The step count. From M = 2 it counts a clock after the accept, from
         # a register of its own beside it: the next accept is M clocks later,
         # when the count is up to date (``ready`` -> ``accept`` -> the count's
@@ -428,15 +426,20 @@ class WindFarmReplay(wiring.Component):
         # per halving of the pipelines, down to pairs. One register into
         # every pipeline's first copy was the 64-channel build's latest path
         # (6.0 ns of one route); a copy per pair from it, 6.2 ns.
+        # Where the windows leave no room for copies (M <= 2), the line's
+        # register is itself a copy for each four pipelines (kept): one
+        # register for eight pipelines, on both sides of the device, was a
+        # 16-channel build's latest path (5.7 ns, 5.2 of it one route).
         win_data_lag = min(ChannelPipeline.win_data_room(M), max(0, (P - 1).bit_length() - 1))
-        copies = {(0, 0): common_word}
+        firsts = 1 if win_data_lag else -(-P // 4)
+        copies = {(0, g): kept_register(m, platform, common.o, f"common_word_{g}") for g in range(firsts)}
         for level in range(1, win_data_lag + 1):
             shift = win_data_lag - level + 1          # the level's copies each serve 2**shift pipelines
             for g in range(((P - 1) >> shift) + 1):
                 copies[(level, g)] = kept_register(m, platform, copies[(level - 1, g >> 1)],
                                                    f"common_word_l{level}_{g}")
         for p in range(P):
-            win_data = copies[(win_data_lag, p >> 1 if win_data_lag else 0)]
+            win_data = copies[(win_data_lag, p >> 1)] if win_data_lag else copies[(0, p // 4)]
             pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout,
                                  window_sites=window_blocks[p] if p < len(window_blocks) else None,
                                  win_data_lag=win_data_lag)
