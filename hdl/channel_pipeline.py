@@ -459,7 +459,7 @@ class ChannelPipeline(wiring.Component):
             "n_len_m1": range(c.pool_words), "n_inc": PHASE_FRAC_BITS, "n_base": c.pool_address_width,
             "n_last": 1, "n_fstart": range(c.pool_words),
             "grant": 1, "fwrap": 1, "f_idx1": range(c.pool_words), "f_addr1": c.pool_address_width,
-            "start": 1, "issue": 1, "last_tap": 1, "release": 1, "jstep": 1,
+            "start": 1, "issue": 1, "last_tap": 1, "release": 1, "jdiff": 1,
             "refill1": range(R + 1), "refill_more": 1, "refill_jobs": 1,
             # the sums stage B selects from (its adders were most of its
             # paths, 7.0 ns at two pipelines)
@@ -552,7 +552,9 @@ class ChannelPipeline(wiring.Component):
             a["issue"] = st.issuing
             a["last_tap"] = st.tap == T - 1
             a["release"] = st.issuing & (st.tap == T - 1) & st.adv
-            a["jstep"] = en & (st.acc[F - PB:] != st.frac[F - PB:])
+            # the J step's phase compare alone; ``en`` is ANDed in stage B
+            # (both in one clock were late in 16- and 64-channel builds, 5.4-5.9 ns)
+            a["jdiff"] = st.acc[F - PB:] != st.frac[F - PB:]
             a["rpos0"] = st.cpos + T - 1
             a["rpos1"] = st.rpos - 1
             a["tap1"] = st.tap + 1
@@ -572,9 +574,9 @@ class ChannelPipeline(wiring.Component):
         else:
             m.d.sync += mid.eq(mid_next)
 
-        # The FIR's U values, merged in stage B (from the MAC pipeline below).
-        mac_wr = Signal(name="mac_wr")
-        mac_dest = Signal(range(3), name="mac_dest")
+        # The FIR's U values, merged in stage B (from the MAC pipeline below):
+        # ``mac_put`` one-hot of the U value a finished job writes.
+        mac_put = Signal(3, name="mac_put")
         mac_val = Signal(IQ(STREAM_WIDTH), name="mac_val")
 
         # Stage B: select the next state from the decisions.
@@ -627,9 +629,11 @@ class ChannelPipeline(wiring.Component):
                     m.d.comb += nxt.tap.eq(x.tap1)
                     with m.If(x.last_tap):
                         m.d.comb += nxt.issuing.eq(0)
-                m.d.comb += nxt.jobs.eq(Mux(x.jstep == x.start, x.jobs,
-                                            Mux(x.jstep, x.jobs_up, x.jobs_dn)))
-                with m.If(x.jstep):
+                jstep = Signal(name="jstep")
+                m.d.comb += jstep.eq(x.en & x.jdiff)
+                m.d.comb += nxt.jobs.eq(Mux(jstep == x.start, x.jobs,
+                                            Mux(jstep, x.jobs_up, x.jobs_dn)))
+                with m.If(jstep):
                     m.d.comb += [nxt.u0.eq(x.u1), nxt.u1.eq(x.u2)]
         # The fetcher's index, address and position, each field selected by a
         # copy of its own of the selects (kept): one register of each select
@@ -672,11 +676,9 @@ class ChannelPipeline(wiring.Component):
                 m.d.comb += nxt.rpos.eq(x.rpos1)
             # a finished job's U value (never in the same visit as a J step:
             # the increment limit, FIR_MIN_SAMPLES_PER_STEP)
-            with m.If(mac_wr):
-                with m.Switch(mac_dest):
-                    for k in range(3):
-                        with m.Case(k):
-                            m.d.comb += getattr(nxt, f"u{k}").eq(mac_val)
+            for k in range(3):
+                with m.If(mac_put[k]):
+                    m.d.comb += getattr(nxt, f"u{k}").eq(mac_val)
 
         # The ring: head -> [A] -> mid -> [B] -> ... -> head: from the update's
         # end back to the head M - 1 clocks (one at M = 1; the head is the last).
@@ -850,7 +852,7 @@ class ChannelPipeline(wiring.Component):
 
         # ---- the FIR's serial MAC: one tap per visit of a slot -------------------
         if fir:
-            self._elaborate_mac(m, platform, st, caches[0], cache_read, mac_wr, mac_dest, mac_val)
+            self._elaborate_mac(m, platform, st, caches[0], cache_read, mac_put, mac_val)
         if checks:
             late = Cat(*[chk & ~arrived.bit_select(addr, 1) for addr, chk in checks]).any()
             m.d.sync += self.underflow.eq(late)
@@ -936,13 +938,13 @@ class ChannelPipeline(wiring.Component):
                 m.d.sync += s_.eq(total)
         return m
 
-    def _elaborate_mac(self, m, platform, st, cache, cache_read, mac_wr, mac_dest, mac_val):
+    def _elaborate_mac(self, m, platform, st, cache, cache_read, mac_put, mac_val):
         """The FIR's multiplier-accumulator: a visiting slot with a job in issue
         reads its tap's word (cache) and coefficient (ROM), both through
         registered addresses; the product (again in fabric) is accumulated in
         a ring of M accumulators (one per slot), rounded and saturated at the
         job's last tap, and merged into the slot's state ``mac_merge_cycles``
-        clocks after the visit (``mac_wr`` and friends)."""
+        clocks after the visit (``mac_put``, ``mac_val``)."""
         c = self._c
         M = c.slots
         T, PB, W = FIR_TAPS, FIR_PHASE_BITS, STREAM_WIDTH
@@ -990,7 +992,11 @@ class ChannelPipeline(wiring.Component):
         fmul = _delay(m, f0, 7, "mac_f")                     # with the multiplier's output, again
         fprod = _delay(m, fmul, 1, "mac_fp")                 # with the product in fabric
         fhigh = _delay(m, fprod, 1, "mac_fh")               # with the upper half's sum
-        resf = _delay(m, fhigh, 3, "mac_resf")              # with the result
+        # with the result: the U value a finished job writes, one-hot, from
+        # registers (a job's last tap's destination decoded into stage B's
+        # merge was late at 16 channels)
+        put0 = Signal(3, name="mac_put0")
+        m.d.sync += put0.eq(Cat(*[fhigh.valid & fhigh.last & (fhigh.dest == k) for k in range(3)]))
         res = Signal(IQ(W), name="mac_res", reset_less=True)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
@@ -1050,5 +1056,4 @@ class ChannelPipeline(wiring.Component):
         assert 1 + 3 + 2 + 1 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
         pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
         res_d = _delay(m, res, pad, "mac_res", data=True)
-        resf_d = _delay(m, resf, pad, "mac_resf")
-        m.d.comb += [mac_wr.eq(resf_d.valid & resf_d.last), mac_dest.eq(resf_d.dest), mac_val.eq(res_d)]
+        m.d.comb += [mac_put.eq(_delay(m, put0, 2 + pad, "mac_put")), mac_val.eq(res_d)]
