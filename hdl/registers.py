@@ -376,9 +376,14 @@ class RegisterFile(wiring.Component):
             tag = _unit_tag(g)
             lo_addr, hi_addr = min(r.addr for r in regs), max(r.addr for r in regs)
 
-            def in_group(op):
-                return op.valid & op.write & (_within(op.addr, lo_addr, hi_addr) | (op.addr == apply_addr))
-            hit = group_hit[g] = decoded(in_group, 1, "hit", g)
+            # the address's range compare a clock earlier, into a register of
+            # its own (the compares and the access's flags in one clock were a
+            # 16-channel build's latest path, 5.5 ns)
+            early = at(g, wd - 3)
+            addressed = Signal(name=f"hit_addr_{tag}")
+            m.d.sync += addressed.eq(_within(early.addr, lo_addr, hi_addr) | (early.addr == apply_addr))
+            hit = group_hit[g] = decoded(lambda op, addressed=addressed: op.valid & op.write & addressed,
+                                         1, "hit", g)
             before = at(g, wd - 1)
             dcopy = landing(Mux(hit, before.data, 0), 32, f"land_data_{tag}", data=True)
             ap_in = writes(apply_addr, g) & before.data[0]

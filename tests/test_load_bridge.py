@@ -8,6 +8,7 @@ into the bit-exact model at the same steps and compares every output sample.
 """
 
 import json
+import struct
 
 import numpy as np
 import pytest
@@ -19,7 +20,7 @@ from rast.load import read_contract, load_manifest, read_status, LoadError
 from rast.model.datapath import ReplayModel
 from rast.model.fixedpoint import ReplayContract, WRITE_STAGING, pack_iq
 from rast.model.hostproto import (HostBridge, BRIDGE_ID, ProtocolError, encode_write, CMD_BURST,
-                                  encode_read, encode_burst, group_writes, CMD_WRITE)
+                                  encode_read, encode_burst, group_writes, CMD_WRITE, ACK)
 from rast.model.regmap import ID_VALUE, register_map, stream_crc32
 
 DIV = 4            # cycles per UART bit in simulation (the bridge's minimum)
@@ -61,6 +62,28 @@ def test_version_id_and_registers(slots):
     assert br.read(rmap.addr("STREAM_ADDR")) == 3           # the burst advanced the address
     assert br.read(rmap.addr("STREAM_COUNT")) == 3          # ... by one word per word sent
     assert br.read(rmap.addr("STREAM_CRC")) == stream_crc32([1, 2, 3])
+
+
+def test_burst_count_of_zero_and_of_256():
+    """A burst's word count is two bytes, low first: a count of 0 is answered
+    at once and writes nothing; 1 (high byte 0) and 256 (low byte 0) wait for
+    their words (here none and one, then the frame times out), so neither
+    byte alone decides."""
+    sys_ = make_system()
+    uart = SimUART(sys_, DIV)
+    br = HostBridge(uart)
+    rmap = sys_.replay.register_map
+    data = rmap.addr("STREAM_DATA")
+    uart.write(struct.pack("<BHH", CMD_BURST, data, 0))
+    assert uart.read(1) == bytes([ACK])
+    assert br.read(rmap.addr("STREAM_COUNT")) == 0
+    uart.write(struct.pack("<BHH", CMD_BURST, data, 1))
+    uart.idle(TIMEOUT + 50)
+    assert uart.read(1) == b""                              # no answer to the cut-off burst
+    uart.write(struct.pack("<BHHI", CMD_BURST, data, 256, 7))
+    uart.idle(TIMEOUT + 50)
+    assert uart.read(1) == b""                              # no answer to the cut-off burst
+    assert br.read(rmap.addr("STREAM_COUNT")) == 1          # its one word was written
 
 
 def test_garbage_and_timeout_resync():
