@@ -459,7 +459,7 @@ class ChannelPipeline(wiring.Component):
             "n_len_m1": range(c.pool_words), "n_inc": PHASE_FRAC_BITS, "n_base": c.pool_address_width,
             "n_last": 1, "n_fstart": range(c.pool_words),
             "grant": 1, "fwrap": 1, "f_idx1": range(c.pool_words), "f_addr1": c.pool_address_width,
-            "start": 1, "issue": 1, "last_tap": 1, "release": 1, "jdiff": 1,
+            "start": 1, "issue": 1, "last_tap": 1, "release": 1, "jstep": 1,
             "refill1": range(R + 1), "refill_more": 1, "refill_jobs": 1,
             # the sums stage B selects from (its adders were most of its
             # paths, 7.0 ns at two pipelines)
@@ -555,9 +555,7 @@ class ChannelPipeline(wiring.Component):
             a["issue"] = st.issuing
             a["last_tap"] = st.tap == T - 1
             a["release"] = st.issuing & (st.tap == T - 1) & st.adv
-            # the J step's phase compare alone; ``en`` is ANDed in stage B
-            # (both in one clock were late in 16- and 64-channel builds, 5.4-5.9 ns)
-            a["jdiff"] = st.acc[F - PB:] != st.frac[F - PB:]
+            a["jstep"] = en & (st.acc[F - PB:] != st.frac[F - PB:])
             a["rpos0"] = st.cpos + T - 1
             a["rpos1"] = st.rpos - 1
             a["tap1"] = st.tap + 1
@@ -629,11 +627,9 @@ class ChannelPipeline(wiring.Component):
                     m.d.comb += nxt.tap.eq(x.tap1)
                     with m.If(x.last_tap):
                         m.d.comb += nxt.issuing.eq(0)
-                jstep = Signal(name="jstep")
-                m.d.comb += jstep.eq(x.en & x.jdiff)
-                m.d.comb += nxt.jobs.eq(Mux(jstep == x.start, x.jobs,
-                                            Mux(jstep, x.jobs_up, x.jobs_dn)))
-                with m.If(jstep):
+                m.d.comb += nxt.jobs.eq(Mux(x.jstep == x.start, x.jobs,
+                                            Mux(x.jstep, x.jobs_up, x.jobs_dn)))
+                with m.If(x.jstep):
                     m.d.comb += [nxt.u0.eq(x.u1), nxt.u1.eq(x.u2)]
         # The fetcher's index, address and position, each field selected by a
         # copy of its own of the selects (kept): one register of each select
