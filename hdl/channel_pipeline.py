@@ -620,11 +620,9 @@ class ChannelPipeline(wiring.Component):
                              nxt.cpos.eq(Mux(x.release, x.cpos1, x.cpos))]
             if fir:
                 with m.If(x.start):
-                    m.d.comb += [nxt.issuing.eq(1), nxt.tap.eq(0), nxt.cphase.eq(x.tp),
-                                 nxt.dest.eq(x.seq), nxt.tp.eq(x.tp1),
+                    m.d.comb += [nxt.issuing.eq(1), nxt.tp.eq(x.tp1),
                                  nxt.adv.eq(x.tp_last), nxt.seq.eq(x.seq1)]
                 with m.Elif(x.issue):
-                    m.d.comb += nxt.tap.eq(x.tap1)
                     with m.If(x.last_tap):
                         m.d.comb += nxt.issuing.eq(0)
                 m.d.comb += nxt.jobs.eq(Mux(x.jstep == x.start, x.jobs,
@@ -654,22 +652,24 @@ class ChannelPipeline(wiring.Component):
             with m.Elif(f_grant):
                 m.d.comb += getattr(nxt, field).eq(fetch_value)
         if fir:
-            # The FIR's read position the same way, from copies of the job's
-            # start and issue selects: the switch, their priority and the
-            # 13-bit choice in one clock were late in all three seeds of a
-            # 16-channel build (5.4-5.7 ns). A switch does not hold it: the
-            # switch clears ``issuing``, and only a start (which sets the
-            # position) sets it again, so what it holds in between is never read.
+            # The FIR job's read position, tap, phase and destination the same
+            # way, from copies of the job's start and issue selects: the
+            # switch, their priority and the choice in one clock were late in
+            # 16-channel builds (the position in all three seeds, 5.4-5.7 ns;
+            # then the tap and phase, 5.4-5.6). A switch does not hold them:
+            # it clears ``issuing``, and only a start (which sets them) sets it
+            # again, so what they hold in between is never read (a tap's
+            # flags go down the MAC with ``issuing`` as their valid).
             job_sel = Cat(a["start"], a["issue"])
             if M == 1:
                 r_start, r_issue = job_sel
             else:
                 # (0 at power-up and reset, as mid's start and issue)
-                r_start, r_issue = kept_register(m, platform, job_sel, "rpos_sel", reset=True)
+                r_start, r_issue = kept_register(m, platform, job_sel, "job_sel", reset=True)
             with m.If(r_start):
-                m.d.comb += nxt.rpos.eq(x.rpos0)
+                m.d.comb += [nxt.rpos.eq(x.rpos0), nxt.tap.eq(0), nxt.cphase.eq(x.tp), nxt.dest.eq(x.seq)]
             with m.Elif(r_issue):
-                m.d.comb += nxt.rpos.eq(x.rpos1)
+                m.d.comb += [nxt.rpos.eq(x.rpos1), nxt.tap.eq(x.tap1)]
             # a finished job's U value (never in the same visit as a J step:
             # the increment limit, FIR_MIN_SAMPLES_PER_STEP)
             for k in range(3):
