@@ -721,8 +721,7 @@ class RegisterFile(wiring.Component):
         end = self.read_latency - 1
         results = []
         for delay, pick in parts:
-            words = [(f"{r.addr:x}", unit_of.get(r.channel), lambda op, a=r.addr: op.addr == a, word_of(r, pick))
-                     for r in rmap.registers]
+            words = [(f"{r.addr:x}", unit_of.get(r.channel), r.addr, word_of(r, pick)) for r in rmap.registers]
             words = [item for item in words if item[3] is not None]
             if delay == wd:
                 words += ram_words
@@ -744,7 +743,8 @@ class RegisterFile(wiring.Component):
         groups to one, then all ORed into a register, and delayed to stage
         ``end`` (SELECT_LEVELS registered levels). 0 when
         the access is no read or addresses none of ``words`` ((name, unit,
-        fn(op): the access is of this word, word) each; ``at(unit, k)``:
+        reads, word) each, ``reads`` the word's address or fn(op): the access
+        is of this word; ``at(unit, k)``:
         stage k as the word's group of channels sees it)."""
         group = 8            # 16 words ORed into a register: 6.5 ns at 16 channels, 100 MS/s
         by_unit = {}
@@ -762,12 +762,20 @@ class RegisterFile(wiring.Component):
                     # compare and the selection in one clock were the
                     # one-pipeline build's worst path at 7.8 ns)
                     hit = Signal(name=f"rd{delay}_hit_{name}")
-                    if delay >= 1:
+                    if isinstance(reads, int) and delay >= 2:
+                        # a register's address compared a clock earlier still,
+                        # into a register of its own (the 16-bit compare and the
+                        # access's flags in one clock were late at 64 channels)
+                        addressed = Signal(name=f"rd{delay}_at_{name}")
+                        m.d.sync += addressed.eq(at(unit, delay - 2).addr == reads)
                         op = at(unit, delay - 1)
-                        m.d.sync += hit.eq(reads(op) & op.valid & ~op.write)
+                        m.d.sync += hit.eq(addressed & op.valid & ~op.write)
+                    elif delay >= 1:
+                        op = at(unit, delay - 1)
+                        m.d.sync += hit.eq(_reads(reads, op) & op.valid & ~op.write)
                     else:
                         op = at(None, 0)
-                        m.d.comb += hit.eq(reads(op) & op.valid & ~op.write)
+                        m.d.comb += hit.eq(_reads(reads, op) & op.valid & ~op.write)
                     sel = sel | Mux(hit, w, 0)
                 m.d.sync += v.eq(sel)
                 firsts.append(v)
@@ -792,6 +800,11 @@ class RegisterFile(wiring.Component):
             m.d.sync += nxt.eq(out)
             out = nxt
         return out
+
+
+def _reads(reads, op):
+    """The access ``op`` is of a word: ``reads`` its address, or fn(op)."""
+    return op.addr == reads if isinstance(reads, int) else reads(op)
 
 
 def _unit_tag(unit):
