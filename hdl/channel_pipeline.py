@@ -295,10 +295,10 @@ class ChannelPipeline(wiring.Component):
     def window_write_cycles(slots: int) -> int:
         """Clocks from the period start to the window's write at its RAM: after
         the visit and the tap's read at the RAM (WORD_CYCLES - the latency of
-        a line without address copies - 1 after it); from M = 4 up to two clocks later, well before step n + 1
-        reads c[n] at tap 0 (test_every_delay_echo_position fails with the
-        write M clocks later), so that c[n] passes more registers on its way
-        from the common line."""
+        a line without address copies - 1 after it); from M = 4 up to two
+        clocks later, well before step n + 1 reads c[n] at tap 0
+        (test_every_delay_echo_position fails with the write M clocks later),
+        so that c[n] passes more registers on its way from the common line."""
         read_at = WORD_CYCLES - DelayLine.LATENCY - 1
         return visit_cycles(slots) + read_at + 1 + min(2, max(0, slots - 3))
 

@@ -741,11 +741,10 @@ class RegisterFile(wiring.Component):
         registers selected in groups into registers at that stage, then
         ORed into a register; the groups' words ORed into registers, four
         groups to one, then all ORed into a register, and delayed to stage
-        ``end`` (SELECT_LEVELS registered levels). 0 when
-        the access is no read or addresses none of ``words`` ((name, unit,
-        reads, word) each, ``reads`` the word's address or fn(op): the access
-        is of this word; ``at(unit, k)``:
-        stage k as the word's group of channels sees it)."""
+        ``end`` (SELECT_LEVELS registered levels). 0 when the access is no
+        read or addresses none of ``words`` ((name, unit, reads, word) each,
+        ``reads`` the word's address or fn(op): the access is of this word;
+        ``at(unit, k)``: stage k as the word's group of channels sees it)."""
         group = 8            # 16 words ORed into a register: 6.5 ns at 16 channels, 100 MS/s
         by_unit = {}
         for item in words:
