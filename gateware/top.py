@@ -146,8 +146,9 @@ class SampleIO(wiring.Component):
     from the replay block's slot counter: a pattern high for the first
     ``slots`` half clocks of each period (the first half of the sample), low
     for the rest, registered twice and driven through an ``ODDRX1F`` like
-    the DAC's data, so clocks and data leave the pins together (at ``slots`` = 1 it is
-    the fabric clock forwarded). No clock crosses to another domain.
+    the DAC's data, so clocks and data leave the pins together (at
+    ``slots`` = 1 it is the fabric clock forwarded). No clock crosses to
+    another domain.
 
     ADC: one ``io.DDRBuffer`` (an ``IDDRX1F`` per pin, taking the pins on
     every rising and falling edge of the fabric clock); the I half of sample k

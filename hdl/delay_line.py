@@ -158,7 +158,7 @@ class DelayLine(wiring.Component):
         ~r_delay + (1 - lag)`` (−x − 1 = ~x): at the lines' lag of 1 one carry
         chain instead of two (the two in front of the read address registers
         were among a 64-channel build's late paths, 5.3 ns)."""
-        bits = len(Signal(range(self._depth)))
+        bits = len(self.r_index)
         not_delay = ~Cat(self.r_delay, Const(0, bits - len(self.r_delay)))
         total = self.r_index + not_delay
         offset = (1 - self._lag) % self._depth
