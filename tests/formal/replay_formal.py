@@ -70,7 +70,7 @@ class StreamAddressCheck(Elaboratable):
                          Assert(st.last == (st.left == 0)),
                          Assert(st.room == (st.ahead < CACHE_FILL_WORDS))]
             with m.If(~st.restart):
-                m.d.comb += [Assert(st.f_idx <= st.len_m1), Assert(offset == st.f_idx)]
+                m.d.comb += [Assert(st.f_rem <= st.len_m1), Assert(offset == st.len_m1 - st.f_rem)]
         # the request the pipeline sends is one its state allowed (registered a clock later)
         return m
 
