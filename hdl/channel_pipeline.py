@@ -420,11 +420,11 @@ class ChannelPipeline(wiring.Component):
         # they were the first of four LUT levels into stage A's jstep (6.3
         # ns at two pipelines).
         rsel = Signal(data.StructLayout({**dict(rl.members), **dict(vl.members)}), name="rsel")
-        fl = data.StructLayout({"regs": rl, "force_swap": 1, "force_pending": 1})
+        fl = data.StructLayout({"regs": rl, "force_swap": 1, "force_pending": 1, "swap_req": 1})
         flags = Signal(fl, name="rsel_flags")
         m.d.comb += rsel.as_value().eq(Cat(flags.regs, _delay(m, self.values, V - 1, "rsel_values")))
-        with_force = [Cat(r, r.cmd_valid & ~r.cmd_enable & r.cmd_swap, r.cmd_valid & ~r.cmd_enable)
-                      for r in self.regs]
+        with_force = [Cat(r, r.cmd_valid & ~r.cmd_enable & r.cmd_swap, r.cmd_valid & ~r.cmd_enable,
+                          r.cmd_valid & r.cmd_swap) for r in self.regs]
         if M == 1:
             m.d.sync += flags.eq(with_force[0])
         elif V == 1:
@@ -494,7 +494,11 @@ class ChannelPipeline(wiring.Component):
             carry.eq(st.acc[F]),
             wrap.eq(carry & st.last),
             wrap_sw.eq(en & pend & wrap),
-            switch.eq(force | wrap_sw),
+            # force | wrap_sw, in two LUT levels: where force is 1 the rest
+            # does not matter, so its terms leave the enable and the request
+            # (from the enable's and the request's levels the switch and its
+            # copies were the 16-channel build's latest paths, 5.4-5.7 ns)
+            switch.eq(force | (step_v & ~st.muting & carry & st.last & (st.pending | flags.swap_req))),
         ]
         a = {}
         a["v"] = step_v
@@ -825,7 +829,9 @@ class ChannelPipeline(wiring.Component):
         # synchronous resets), so that the sum goes straight into the
         # operand copies (a multiplexer after it was among a 16-channel
         # build's late paths, 6.2 ns).
-        mute = _delay(m, mute_out, WORD_CYCLES - 2, "word_mute")        # a clock before the word's last registers
+        # (the product's: the multiplier's output register, a clock earlier)
+        mute_early = _delay(m, mute_out, WORD_CYCLES - 3, "word_mute_early")
+        mute = _delay(m, mute_early, 1, "word_mute")        # a clock before the word's last registers
 
         def last_register(value, name):
             reg = Signal.like(value, name=name, reset_less=True)
@@ -845,9 +851,10 @@ class ChannelPipeline(wiring.Component):
                 m.d.sync += diff.eq(getattr(b2, part) - getattr(a2, part))
                 mul = RegisteredMultiplier(STREAM_WIDTH + 1, INTERP_FRAC_BITS + 1, input_reg=True)
                 m.submodules[f"lin_mul_{part}"] = mul
-                m.d.comb += [mul.en.eq(1), mul.a.eq(diff), mul.b.eq(f3)]
-                # the product again in fabric, next to the adder
-                prod = last_register(mul.o, f"word_prod_{part}")
+                m.d.comb += [mul.en.eq(1), mul.clear.eq(mute_early), mul.a.eq(diff), mul.b.eq(f3)]
+                # the product again in fabric, next to the adder (cleared
+                # already in the multiplier)
+                prod = _delay(m, mul.o, 1, f"word_prod_{part}", data=True)
                 # (a*2**16 + 2**15 + p) >> 16 = a + (p >> 16) + p[15]: the sum
                 # and the rounding one adder of a's width, p[15] its carry-in
                 # (a low bit beside a, 1 on the other side, shifted out); the

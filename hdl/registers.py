@@ -749,6 +749,20 @@ class RegisterFile(wiring.Component):
         ``reads`` the word's address or fn(op): the access is of this word;
         ``at(unit, k)``: stage k as the word's group of channels sees it)."""
         group = 8            # 16 words ORed into a register: 6.5 ns at 16 channels, 100 MS/s
+        predecoded = {}
+
+        def predecode(unit, part, value):
+            """A part of the address (``"lo"``: its low PREDECODE_BITS; ``"hi"``:
+            the rest) equal to ``value`` at stage ``delay - 3``, registered."""
+            key = (unit, part, value)
+            if key not in predecoded:
+                addr = at(unit, delay - 3).addr
+                bits = addr[:PREDECODE_BITS] if part == "lo" else addr[PREDECODE_BITS:]
+                r = Signal(name=f"rd{delay}_{part}{value}_{_unit_tag(unit)}")
+                m.d.sync += r.eq(bits == value)
+                predecoded[key] = r
+            return predecoded[key]
+
         by_unit = {}
         for item in words:
             by_unit.setdefault(item[1], []).append(item)
@@ -767,9 +781,17 @@ class RegisterFile(wiring.Component):
                     if isinstance(reads, int) and delay >= 2:
                         # a register's address compared a clock earlier still,
                         # into a register of its own (the 16-bit compare and the
-                        # access's flags in one clock were late at 64 channels)
+                        # access's flags in one clock were late at 64 channels);
+                        # from delay 3 on, from predecoded parts a clock earlier
+                        # again (the whole compare, every stage address bit
+                        # into a hundred of them, was late at 16 channels, 5.6 ns)
                         addressed = Signal(name=f"rd{delay}_at_{name}")
-                        m.d.sync += addressed.eq(at(unit, delay - 2).addr == reads)
+                        if delay >= 3:
+                            m.d.sync += addressed.eq(
+                                predecode(unit, "lo", reads & ((1 << PREDECODE_BITS) - 1))
+                                & predecode(unit, "hi", reads >> PREDECODE_BITS))
+                        else:
+                            m.d.sync += addressed.eq(at(unit, delay - 2).addr == reads)
                         op = at(unit, delay - 1)
                         m.d.sync += hit.eq(addressed & op.valid & ~op.write)
                     elif delay >= 1:
