@@ -312,3 +312,14 @@ def test_cli_sdram_option(tmp_path, capsys):
     assert main(["build", "--sdram", "--pool-words", "81920", "--out", str(out)]) == 2
     assert "power of two" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_nextpnr_options_extra_replaces_placer_options():
+    from rast.gateware.build import PLACER_OPTIONS, nextpnr_options
+    assert nextpnr_options() == list(PLACER_OPTIONS)
+    # an option given again in extra replaces the default (nextpnr refuses an option twice)
+    merged = nextpnr_options(["--placer-heap-critexp", "2", "--router", "router2"])
+    assert merged.count("--placer-heap-critexp") == 1
+    assert merged[merged.index("--placer-heap-critexp") + 1] == "2"
+    assert merged[merged.index("--placer-heap-timingweight") + 1] == PLACER_OPTIONS[1]
+    assert merged[-2:] == ["--router", "router2"]
