@@ -829,9 +829,9 @@ class ChannelPipeline(wiring.Component):
         # synchronous resets), so that the sum goes straight into the
         # operand copies (a multiplexer after it was among a 16-channel
         # build's late paths, 6.2 ns).
-        # (the product's: the multiplier's output register, a clock earlier)
-        mute_early = _delay(m, mute_out, WORD_CYCLES - 3, "word_mute_early")
-        mute = _delay(m, mute_early, 1, "word_mute")        # a clock before the word's last registers
+        # (the product's: its fraction operand, three clocks earlier)
+        mute_early = _delay(m, mute_out, WORD_CYCLES - 5, "word_mute_early")
+        mute = _delay(m, mute_early, 3, "word_mute")        # a clock before the word's last registers
 
         def last_register(value, name):
             reg = Signal.like(value, name=name, reset_less=True)
@@ -845,15 +845,20 @@ class ChannelPipeline(wiring.Component):
             # the word itself, as late as the interpolated one would be
             m.d.comb += word.eq(last_register(_delay(m, a2, WORD_CYCLES - 4, "word_hold", data=True), "word_hold"))
         else:
-            f3 = _delay(m, f2, 1, "word_f3", data=True)
+            # the fraction operand, 0 for a muted word: its product is then
+            # 0 with no multiplexer after the multiplier (the multiplier's
+            # output through one into its register was a 16-channel build's
+            # late path, 5.3 ns)
+            f3 = Signal.like(f2, name="word_f3", reset_less=True)
+            m.d.sync += f3.eq(_cleared(f2, mute_early))
             for part in ("re", "im"):
                 diff = Signal(signed(STREAM_WIDTH + 1), name=f"word_diff_{part}", reset_less=True)
                 m.d.sync += diff.eq(getattr(b2, part) - getattr(a2, part))
                 mul = RegisteredMultiplier(STREAM_WIDTH + 1, INTERP_FRAC_BITS + 1, input_reg=True)
                 m.submodules[f"lin_mul_{part}"] = mul
-                m.d.comb += [mul.en.eq(1), mul.clear.eq(mute_early), mul.a.eq(diff), mul.b.eq(f3)]
-                # the product again in fabric, next to the adder (cleared
-                # already in the multiplier)
+                m.d.comb += [mul.en.eq(1), mul.a.eq(diff), mul.b.eq(f3)]
+                # the product again in fabric, next to the adder (0 already
+                # for a muted word)
                 prod = _delay(m, mul.o, 1, f"word_prod_{part}", data=True)
                 # (a*2**16 + 2**15 + p) >> 16 = a + (p >> 16) + p[15]: the sum
                 # and the rounding one adder of a's width, p[15] its carry-in

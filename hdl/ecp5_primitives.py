@@ -23,7 +23,7 @@ primitives' registers, and the unregistered paths (block RAM clock-to-out
 reached 202 MHz.
 """
 
-from amaranth.hdl import Module, Signal, Value, Const, Cat, Mux, ClockSignal, ResetSignal, Instance, signed, unsigned
+from amaranth.hdl import Module, Signal, Value, Const, Cat, ClockSignal, ResetSignal, Instance, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
@@ -315,11 +315,7 @@ class RegisteredMultiplier(wiring.Component):
 
     On ECP5 one ``MULT18X18D`` with its output register, and with
     ``input_reg`` its input registers too; operands up to 18 bits each. The
-    registers are reset with the domain. ``clear`` makes the next ``o`` 0
-    (the output register's own synchronous reset, so that a product muted
-    after the multiplier needs no multiplexer in the fabric: the
-    multiplier's output through one into a register was a 16-channel
-    build's late path, 5.3 ns).
+    registers are reset with the domain.
 
     Parameters
     ----------
@@ -330,8 +326,6 @@ class RegisteredMultiplier(wiring.Component):
     Members
     -------
     en : In(1)
-    clear : In(1)
-        With ``en``: the next ``o`` is 0 (the operands still advance).
     a : In(signed(a_width)), b : In(signed(b_width))
     o : Out(signed(a_width + b_width))
     """
@@ -345,7 +339,6 @@ class RegisteredMultiplier(wiring.Component):
         self._aw, self._bw, self._input_reg = a_width, b_width, input_reg
         super().__init__({
             "en": In(1),
-            "clear": In(1),
             "a": In(signed(a_width)),
             "b": In(signed(b_width)),
             "o": Out(signed(a_width + b_width)),
@@ -364,7 +357,7 @@ class RegisteredMultiplier(wiring.Component):
                 with m.If(self.en):
                     m.d.sync += [a.eq(self.a), b.eq(self.b)]
             with m.If(self.en):
-                m.d.sync += self.o.eq(Mux(self.clear, 0, a * b))
+                m.d.sync += self.o.eq(a * b)
             return m
         inreg = "CLK0" if self._input_reg else "NONE"
         a18 = Signal(signed(18))
@@ -382,18 +375,16 @@ class RegisteredMultiplier(wiring.Component):
             "MULT18X18D",
             p_REG_INPUTA_CLK=inreg, p_REG_INPUTB_CLK=inreg, p_REG_INPUTC_CLK="NONE",
             p_REG_INPUTA_CE="CE0", p_REG_INPUTB_CE="CE0",
-            p_REG_INPUTA_RST="RST1", p_REG_INPUTB_RST="RST1",
+            p_REG_INPUTA_RST="RST0", p_REG_INPUTB_RST="RST0",
             p_REG_PIPELINE_CLK="NONE", p_REG_OUTPUT_CLK="CLK0",
             p_REG_OUTPUT_CE="CE0", p_REG_OUTPUT_RST="RST0",
             p_CLK0_DIV="ENABLED", p_CLK1_DIV="ENABLED", p_CLK2_DIV="ENABLED", p_CLK3_DIV="ENABLED",
             p_HIGHSPEED_CLK="NONE", p_GSR="DISABLED", p_CAS_MATCH_REG="FALSE",
             p_SOURCEB_MODE="B_SHIFT", p_MULT_BYPASS="DISABLED", p_RESETMODE="SYNC",
             i_SIGNEDA=Const(1), i_SIGNEDB=Const(1), i_SOURCEA=Const(0), i_SOURCEB=Const(0),
-            # RST0 the output register's (the domain's reset or a clear),
-            # RST1 the input registers' (the domain's reset)
-            i_CLK0=ClockSignal("sync"), i_CE0=self.en, i_RST0=ResetSignal("sync") | self.clear,
+            i_CLK0=ClockSignal("sync"), i_CE0=self.en, i_RST0=ResetSignal("sync"),
             i_CLK1=Const(0), i_CLK2=Const(0), i_CLK3=Const(0),
             i_CE1=Const(0), i_CE2=Const(0), i_CE3=Const(0),
-            i_RST1=ResetSignal("sync"), i_RST2=Const(0), i_RST3=Const(0),
+            i_RST1=Const(0), i_RST2=Const(0), i_RST3=Const(0),
             **ports)
         return m

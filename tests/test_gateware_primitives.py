@@ -118,19 +118,16 @@ def test_multiplier_model(input_reg):
         stage, expect = (0, 0), 0
         for _ in range(300):
             a, b, en = rng.randrange(-(1 << 15), 1 << 15), rng.randrange(-(1 << 16), 1 << 16), rng.random() < 0.8
-            clear = rng.random() < 0.2
-            ctx.set(dut.a, a); ctx.set(dut.b, b); ctx.set(dut.en, en); ctx.set(dut.clear, clear)
+            ctx.set(dut.a, a); ctx.set(dut.b, b); ctx.set(dut.en, en)
             await ctx.tick()
             if en:
                 if input_reg:
                     expect, stage = stage[0] * stage[1], (a, b)
                 else:
                     expect = a * b
-                if clear:                   # the product cleared, the operands taken
-                    expect = 0
             assert ctx.get(dut.o) == expect
         for _ in range(dut.latency):
-            ctx.set(dut.a, -(1 << 15)); ctx.set(dut.b, -(1 << 16)); ctx.set(dut.en, 1); ctx.set(dut.clear, 0)
+            ctx.set(dut.a, -(1 << 15)); ctx.set(dut.b, -(1 << 16)); ctx.set(dut.en, 1)
             await ctx.tick()
         assert ctx.get(dut.o) == 1 << 31                  # the extreme product fits
 
@@ -148,8 +145,6 @@ def test_multiplier_ecp5_structure():
     assert "$mul" not in text
     text = _rtlil(RegisteredMultiplier(18, 17, input_reg=True), FakeECP5())
     assert 'parameter \\REG_INPUTA_CLK "CLK0"' in text and 'parameter \\REG_INPUTB_CLK "CLK0"' in text
-    # the clear resets the output register only, not the operands' registers
-    assert 'parameter \\REG_OUTPUT_RST "RST0"' in text and 'parameter \\REG_INPUTA_RST "RST1"' in text
 
 
 @pytest.mark.parametrize("kept", [False, True])
