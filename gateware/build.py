@@ -52,7 +52,8 @@ BRAM_POOL_WORDS = 81920
 #: exponent 4 (defaults 10 and 2) weighs the critical connections harder
 #: against wire length. Measured on the 16-channel, 100 MS/s netlist that
 #: made 174.8 MHz at seed 1 with the defaults: 197.3 MHz, one late
-#: endpoint (docs/bitstream.md, "The placer's timing weight").
+#: endpoint (docs/bitstream.md, "Restart index, switch, fetch count, and
+#: the placer's timing weight", with the builds since).
 PLACER_OPTIONS = ("--placer-heap-timingweight", "30", "--placer-heap-critexp", "4")
 
 
