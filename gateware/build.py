@@ -50,10 +50,11 @@ BRAM_POOL_WORDS = 81920
 #: nextpnr placer options every build passes (``BuildConfig.extra_nextpnr``
 #: overrides any of them): HeAP with its timing weight 30 and criticality
 #: exponent 4 (defaults 10 and 2) weighs the critical connections harder
-#: against wire length. Measured on the 16-channel, 100 MS/s netlist that
-#: made 174.8 MHz at seed 1 with the defaults: 197.3 MHz, one late
-#: endpoint (docs/bitstream.md, "Restart index, switch, fetch count, and
-#: the placer's timing weight", with the builds since).
+#: against wire length. Two 16-channel, 100 MS/s netlists at seed 1, each
+#: with the defaults and with these: 174.8 -> 197.3 MHz (29 -> 1 late
+#: endpoints) and 181.5 -> 182.4 (9 and 9); no 64-channel pair yet
+#: (docs/bitstream.md, "Restart index, switch, fetch count, and the
+#: placer's timing weight").
 PLACER_OPTIONS = ("--placer-heap-timingweight", "30", "--placer-heap-critexp", "4")
 
 
