@@ -457,7 +457,7 @@ class ChannelPipeline(wiring.Component):
         # Stage A: decisions and candidates from the head's registers.
         mid_fields = dict(SL.members)
         mid_fields.update({
-            "v": 1, "en": 1, "switch": 1, "force": 1, "wrap": 1, "carry": 1, "pend": 1,
+            "en": 1, "switch": 1, "wrap": 1, "carry": 1, "pend": 1,
             "step": PHASE_FRAC_BITS + 1, "left_one": 1, "left_step": range(c.pool_words), "len0": 1,
             "n_len_m1": range(c.pool_words), "n_inc": PHASE_FRAC_BITS, "n_base": c.pool_address_width,
             "n_last": 1, "n_fstart": range(c.pool_words),
@@ -501,10 +501,8 @@ class ChannelPipeline(wiring.Component):
             switch.eq(force | (step_v & ~st.muting & carry & st.last & (st.pending | flags.swap_req))),
         ]
         a = {}
-        a["v"] = step_v
         a["en"] = en
         a["switch"] = switch
-        a["force"] = force
         a["wrap"] = wrap
         a["carry"] = carry
         a["pend"] = pend
