@@ -32,7 +32,8 @@ def simulate(dut, bench):
 
 @pytest.mark.parametrize("args, exc, msg", [
     (dict(a_width=0), TypeError, r"^Operand A width must be a positive integer, not 0$"),
-    (dict(shift=0), ValueError, r"^Rounding shift must be an integer in \[1, 32\], not 0$"),
+    (dict(shift=0), ValueError, r"^Rounding shift must be an integer in \[1, 31\], not 0$"),
+    (dict(shift=32), ValueError, r"^Rounding shift must be an integer in \[1, 31\], not 32$"),
     (dict(form="5mult"), ValueError,
      r"^Complex multiplier form must be one of 4mult, 3mult, not '5mult'$"),
     (dict(operand_registers=1), TypeError, r"^Operand registers must be a bool, not 1$"),
@@ -362,6 +363,41 @@ def test_cmult_random_and_extremes(form, operand_registers):
             f"{form}: a=({ops[k,0]},{ops[k,1]}) b=({ops[k,2]},{ops[k,3]}) step {k}: gateware " \
             f"{tuple(got[k])}, model ({ei[k]}, {eq[k]})"
 
+
+
+@pytest.mark.parametrize("shift", [1, 2, 4, 8])
+@pytest.mark.parametrize("form", ["4mult", "3mult"])
+def test_cmult_narrow_rounding_every_shift(form, shift):
+    """Small widths and shifts from 1 to the largest (8: the most positive
+    sum, 2**8, rounds to 1; the rounding constant folded into the low and
+    high sums' bits has an edge at every shift): o is
+    floor((a*b + 2**(shift-1)) / 2**shift) for each part, every product of
+    ±5-bit and 4-bit parts' extremes and random values."""
+    rng = np.random.default_rng(shift)
+    ext_a, ext_b = [-16, -15, -1, 0, 1, 15], [-8, -7, -1, 0, 1, 7]
+    corner = np.array([(p, q, r, t) for p, q in itertools.product(ext_a, repeat=2)
+                       for r, t in itertools.product(ext_b, repeat=2)], dtype=np.int64)
+    rand = np.concatenate([rng.integers(-16, 16, size=(200, 2)), rng.integers(-8, 8, size=(200, 2))], axis=1)
+    ops = np.concatenate([corner, rand])
+    dut = ComplexMultiplier(5, 4, shift, form)
+    got = []
+
+    async def bench(ctx):
+        for n in range(len(ops) + dut.latency):
+            ar, ai, br, bi = (int(v) for v in ops[min(n, len(ops) - 1)])
+            ctx.set(dut.a.re, ar); ctx.set(dut.a.im, ai)
+            ctx.set(dut.b.re, br); ctx.set(dut.b.im, bi)
+            ctx.set(dut.en, 1)
+            if n >= dut.latency:
+                got.append((ctx.get(dut.o.re), ctx.get(dut.o.im)))
+            await ctx.tick()
+
+    simulate(dut, bench)
+    ar, ai, br, bi = ops.T
+    half = 1 << (shift - 1)
+    want_re = (ar * br - ai * bi + half) >> shift
+    want_im = (ar * bi + ai * br + half) >> shift
+    assert [g for g in got] == list(zip(want_re.tolist(), want_im.tolist()))
 
 # ---------------------------------------------------------------- delay line
 
