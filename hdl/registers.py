@@ -699,11 +699,14 @@ class RegisterFile(wiring.Component):
         # into a register. (The RAM's read port and the selection in one
         # clock were the 200 MHz build's worst path at seed 2, 7.4 ns; read
         # into one register, 6.7 ns.)
+        # The read's slot in a register (kept) for each field and part: one
+        # per group, into the fresh bits', the reset values' and the RAMs'
+        # selections of all fields, was the 64-channel build's latest path
+        # (rd_slot -> a fresh bit, 5.8-5.9 ns).
         early = 2
         ram_words = []
         for g, members in enumerate(self._groups):
-            rd_slot = Signal(slot_bits, name=f"rd_slot_g{g}")
-            m.d.sync += rd_slot.eq(slot_at(at(g, wd - 1 - early)))
+            rd_slot_of = slot_at(at(g, wd - 1 - early))
             # the access is to the group's channel registers, a clock before
             # each field's hit (the range compare and the offset's in one
             # clock were among the 64-channel build's late paths, 6.2 ns)
@@ -713,9 +716,12 @@ class RegisterFile(wiring.Component):
                 if f.access == "rw":
                     offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
                     raw_read, fresh, reset_of = ram_reads[g][name]
+                    rd_slot = {what: kept_register(m, platform, rd_slot_of, f"rd_slot_{name}_{what}_g{g}")
+                               for what in ("use_reset", "reset", "ram")}
                     parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}")
-                                for v, what in zip((fresh.bit_select(rd_slot, 1), reset_of[rd_slot],
-                                                    raw_read(rd_slot)), ("use_reset", "reset", "ram"))]
+                                for v, what in zip((fresh.bit_select(rd_slot["use_reset"], 1),
+                                                    reset_of[rd_slot["reset"]], raw_read(rd_slot["ram"])),
+                                                   ("use_reset", "reset", "ram"))]
                     word = Mux(*parts_of)
                     word = landing(word, word.shape(), f"rd_{name}_g{g}")
                     ram_words.append((f"{name}_g{g}", g,
