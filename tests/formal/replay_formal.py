@@ -33,7 +33,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from rast.hdl.channel_pipeline import ChannelPipeline, SlotInit   # noqa: E402
 from rast.hdl.delay_line import DelayLine                         # noqa: E402
 from rast.hdl.registers import channel_regs_layout, slot_values_layout  # noqa: E402
-from rast.model.fixedpoint import ReplayContract, CACHE_FILL_WORDS, FIR_TAPS  # noqa: E402
+from rast.model.fixedpoint import (ReplayContract, CACHE_FILL_WORDS, FIR_TAPS, FIR_PHASE_BITS,  # noqa: E402
+                                   PHASE_FRAC_BITS)
 from rast.model.regmap import register_map                        # noqa: E402
 
 
@@ -72,8 +73,11 @@ class StreamAddressCheck(Elaboratable):
             with m.If(~st.restart):
                 m.d.comb += [Assert(st.f_rem <= st.len_m1), Assert(offset == st.len_m1 - st.f_rem)]
             if c.interpolation == "fir":
-                # the kept last-tap bit follows the tap it stands for
-                m.d.comb += Assert(st.tap_last == (st.tap == FIR_TAPS - 1))
+                # the kept flags follow the fields they stand for
+                hi = PHASE_FRAC_BITS - FIR_PHASE_BITS
+                m.d.comb += [Assert(st.tap_last == (st.tap == FIR_TAPS - 1)),
+                             Assert(st.jne == (st.acc[hi:] != st.frac[hi:])),
+                             Assert(st.inc_hnz == (st.inc[hi:] != 0))]
         # the request the pipeline sends is one its state allowed (registered a clock later)
         return m
 
