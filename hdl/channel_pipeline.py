@@ -858,11 +858,15 @@ class ChannelPipeline(wiring.Component):
             return reg
         # the word's last stage ends in the complex multiplier's operand
         # registers (a copy beside each multiplier), so ``word`` is the value
-        # they take, a clock before the word is in its registers
+        # they take, a clock before the word is in its registers; ``word2``
+        # the same value for the other two multipliers (``second_b``), from
+        # an adder and registers of its own
         word = Signal(IQ(STREAM_WIDTH), name="word")
+        word2 = Signal(IQ(STREAM_WIDTH), name="word2")
         if interp == "hold":
             # the word itself, as late as the interpolated one would be
             m.d.comb += word.eq(last_register(_delay(m, a2, WORD_CYCLES - 4, "word_hold", data=True), "word_hold"))
+            m.d.comb += word2.eq(word)
         else:
             # the fraction operand, 0 for a muted word: its product is then
             # 0 with no multiplexer after the multiplier (the multiplier's
@@ -884,11 +888,16 @@ class ChannelPipeline(wiring.Component):
                 # (a low bit beside a, 1 on the other side, shifted out); the
                 # whole 33-bit sum was the carry chain into the operand copies,
                 # 6.2 ns at 16 channels. A muted word: (0 + 1) >> 1 = 0.
-                a6 = last_register(_delay(m, getattr(a2, part), WORD_CYCLES - 4, f"word_a6_{part}", data=True),
-                                   f"word_a6_{part}")
-                rounded_hi = Cat(Const(1, 1), prod[INTERP_FRAC_BITS:]).as_signed()
-                m.d.comb += getattr(word, part).eq(
-                    (Cat(prod[INTERP_FRAC_BITS - 1], a6).as_signed() + rounded_hi) >> 1)
+                a5 = _delay(m, getattr(a2, part), WORD_CYCLES - 4, f"word_a6_{part}", data=True)
+                a6 = last_register(a5, f"word_a6_{part}")
+                # word2's: the product and a again, kept apart from word's
+                # (equal registers would be one to Yosys, and so the adders)
+                prod2 = kept_register(m, platform, mul.o, f"word2_prod_{part}")
+                a6_2 = kept_register(m, platform, _cleared(a5, mute), f"word2_a6_{part}")
+                for target, p_, a_ in ((word, prod, a6), (word2, prod2, a6_2)):
+                    rounded_hi = Cat(Const(1, 1), p_[INTERP_FRAC_BITS:]).as_signed()
+                    m.d.comb += getattr(target, part).eq(
+                        (Cat(p_[INTERP_FRAC_BITS - 1], a_).as_signed() + rounded_hi) >> 1)
             # operands (address, word), difference, multiplier in and out, product, sum
             assert 2 + 1 + 2 + 1 + 1 == WORD_CYCLES
 
@@ -941,8 +950,8 @@ class ChannelPipeline(wiring.Component):
         # The tap's sample and the word into the multiplier's operand
         # registers, a copy for each of its multipliers (``operand_registers``).
         m.submodules.cmult = cm = ComplexMultiplier(INPUT_WIDTH, STREAM_WIDTH, PRODUCT_SHIFT, c.cmult_form,
-                                                    operand_registers=True)
-        m.d.comb += [cm.en.eq(1), cm.a.eq(win.o), cm.b.eq(word)]
+                                                    operand_registers=True, second_b=True)
+        m.d.comb += [cm.en.eq(1), cm.a.eq(win.o), cm.b.eq(word), cm.b2.eq(word2)]
         geff = Signal(rg.gain.shape(), name="geff")
         m.d.comb += geff.eq(Mux(rg.enable, rg.gain, 0))
         g = _delay(m, geff, WORD_CYCLES - 1 + cm.latency, "gain", data=True)

@@ -37,6 +37,7 @@ def simulate(dut, bench):
     (dict(form="5mult"), ValueError,
      r"^Complex multiplier form must be one of 4mult, 3mult, not '5mult'$"),
     (dict(operand_registers=1), TypeError, r"^Operand registers must be a bool, not 1$"),
+    (dict(second_b="yes"), TypeError, r"^Second B operand must be a bool, not 'yes'$"),
 ])
 def test_cmult_parameters(args, exc, msg):
     with pytest.raises(exc, match=msg):
@@ -327,15 +328,15 @@ def test_iq_layout():
 
 # ---------------------------------------------------------------- cmult
 
-@pytest.mark.parametrize("operand_registers", [False, True])
+@pytest.mark.parametrize("operand_registers, second_b", [(False, False), (True, False), (True, True)])
 @pytest.mark.parametrize("form", ["4mult", "3mult"])
-def test_cmult_random_and_extremes(form, operand_registers):
+def test_cmult_random_and_extremes(form, operand_registers, second_b):
     rng = np.random.default_rng(3)
     ext = [-32768, -32767, -1, 0, 1, 32767]
     corner = np.array(list(itertools.product(ext, repeat=4)), dtype=np.int64)
     rand = rng.integers(-32768, 32768, size=(300, 4))
     ops = np.concatenate([corner, rand])
-    dut = ComplexMultiplier(form=form, operand_registers=operand_registers)
+    dut = ComplexMultiplier(form=form, operand_registers=operand_registers, second_b=second_b)
     assert dut.o_width == 18
     lat = dut.latency
     got = []
@@ -348,6 +349,8 @@ def test_cmult_random_and_extremes(form, operand_registers):
             ar, ai, br, bi = (int(v) for v in ops[min(n, len(ops) - 1)])
             ctx.set(dut.a.re, ar); ctx.set(dut.a.im, ai)
             ctx.set(dut.b.re, br); ctx.set(dut.b.im, bi)
+            if second_b:
+                ctx.set(dut.b2.re, br); ctx.set(dut.b2.im, bi)
             ctx.set(dut.en, en)
             if en:
                 if n >= lat:
