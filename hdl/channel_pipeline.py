@@ -367,6 +367,7 @@ class ChannelPipeline(wiring.Component):
         R = c.refill_samples
         back = FIR_LEAD - 1 if c.interpolation == "fir" else 0
         length = si.length
+        inc_hnz = int(si.increment >> (PHASE_FRAC_BITS - FIR_PHASE_BITS) != 0)   # frac is 0: jne too
         return {"left": length - 1, "frac": 0, "acc": si.increment, "last": int(length == 1),
                 "len_m1": length - 1, "inc": si.increment, "base": si.base,
                 "pending": 0, "bank": 0, "restart": 1, "muting": 1, "refill": R,
@@ -374,9 +375,7 @@ class ChannelPipeline(wiring.Component):
                 "f_rem": length - 1, "f_addr": si.base, "f_pos": 0, "ahead": 0, "room": 1,
                 "f_start": length - back if back and length > back else 0, "cpos": 0,
                 "tp": 0, "jobs": 3, "seq": 0, "issuing": 0, "adv": 0, "tap": 0, "rpos": 0,
-                "cphase": 0, "dest": 0, "tap_last": int(FIR_TAPS == 1),
-                "jne": int(si.increment >> (PHASE_FRAC_BITS - FIR_PHASE_BITS) != 0),
-                "inc_hnz": int(si.increment >> (PHASE_FRAC_BITS - FIR_PHASE_BITS) != 0)}
+                "cphase": 0, "dest": 0, "tap_last": int(FIR_TAPS == 1), "jne": inc_hnz, "inc_hnz": inc_hnz}
 
     def elaborate(self, platform):
         m = Module()
@@ -481,7 +480,8 @@ class ChannelPipeline(wiring.Component):
             "f_addr0": SL.members["f_addr"], "f_pos1": SL.members["f_pos"],
             "ahead_up": SL.members["ahead"], "ahead_dn": SL.members["ahead"], "room_up": 1, "room_dn": 1,
             "cpos1": SL.members["cpos"], "rpos0": SL.members["rpos"], "rpos1": SL.members["rpos"],
-            "tap1": SL.members["tap"], "tap1_last": 1, "jne_step": 1, "n_jne": 1, "tp1": SL.members["tp"], "tp_last": 1,
+            "tap1": SL.members["tap"], "tap1_last": 1, "jne_step": 1, "n_jne": 1,
+            "tp1": SL.members["tp"], "tp_last": 1,
             "seq1": SL.members["seq"], "jobs_up": SL.members["jobs"], "jobs_dn": SL.members["jobs"],
         })
         ML = data.StructLayout(mid_fields)
