@@ -81,6 +81,7 @@ class ComplexMultiplier(wiring.Component):
             raise TypeError(f"Second B operand must be a bool, not {second_b!r}")
         self._a_width, self._b_width, self._shift, self._form = a_width, b_width, shift, form
         self._operand_registers = operand_registers
+        self._second_b = second_b
         self._full_width = full
         self._o_width = full - shift
         super().__init__({
@@ -136,7 +137,7 @@ class ComplexMultiplier(wiring.Component):
         if self._form == "4mult":
             def product(name, x, y):
                 return mul(name, operand(x, f"a_{name}"), operand(y, f"b_{name}"))
-            b2 = self.b2 if "b2" in self.signature.members else b
+            b2 = self.b2 if self._second_b else b
             rr, ii = product("rr", a.re, b.re), product("ii", a.im, b.im)
             ri, ir = product("ri", a.re, b2.im), product("ir", a.im, b2.re)
             re_v, im_v = (rr, ii, True), (ri, ir, False)

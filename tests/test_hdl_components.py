@@ -400,7 +400,7 @@ def test_cmult_narrow_rounding_every_shift(form, shift):
     half = 1 << (shift - 1)
     want_re = (ar * br - ai * bi + half) >> shift
     want_im = (ar * bi + ai * br + half) >> shift
-    assert [g for g in got] == list(zip(want_re.tolist(), want_im.tolist()))
+    assert got == list(zip(want_re.tolist(), want_im.tolist()))
 
 # ---------------------------------------------------------------- delay line
 
