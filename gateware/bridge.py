@@ -10,6 +10,7 @@ from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
+from ..hdl.ecp5_primitives import kept_register
 from ..hdl.registers import BusSignature
 from ..model.hostproto import (CMD_WRITE, CMD_BURST, CMD_READ, CMD_VERSION, ACK, BRIDGE_ID,
                                TX_FIFO_DEPTH)
@@ -165,10 +166,15 @@ class UARTBridge(wiring.Component):
         # across the device, and straight into the state they were among the
         # 200 MHz builds' late paths (docs/bitstream.md). The strobe stays
         # high a clock after the take, a clock in which ready is low (the bus
-        # is never ready in two clocks running).
-        taken, r_valid, r_data = Signal(), Signal(), Signal(32)
-        m.d.sync += [taken.eq(bus.ready & (w_stb | r_stb)), r_valid.eq(bus.r_valid),
-                     r_data.eq(bus.r_data)]
+        # is never ready in two clocks running). ``taken`` and ``r_valid``
+        # are kept: as plain registers Yosys merged ``taken`` with the
+        # register file's first stage's valid (the same input), placed by
+        # the register file, and from there into the state's enable was
+        # among the 16-channel builds' late paths (5.1 ns).
+        r_data = Signal(32)
+        taken = kept_register(m, platform, bus.ready & (w_stb | r_stb), "taken", reset=True)
+        r_valid = kept_register(m, platform, bus.r_valid, "r_valid", reset=True)
+        m.d.sync += r_data.eq(bus.r_data)
 
         with m.If(r_valid):
             m.d.sync += reply.eq(r_data)

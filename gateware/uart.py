@@ -176,7 +176,11 @@ class UARTTx(wiring.Component):
         # enable, was among a 200 MHz build's late paths)
         idle = Signal(init=1)
         m.d.comb += self.ready.eq(idle)
-        m.d.comb += self.tx.eq(shreg[0])
+        # the line from a register of its own, a clock behind the shift
+        # register, free to sit by the pin (as the shift register's bit,
+        # enabled from the bit timer, it was among the 16-channel build's
+        # paths at 4.9-5.0 ns)
+        m.d.sync += self.tx.eq(shreg[0])
         with m.If(idle):
             with m.If(self.valid):
                 m.d.sync += [shreg.eq(Cat(Const(0, 1), self.data, Const(1, 1))), left.eq(10), idle.eq(0)]

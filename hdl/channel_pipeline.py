@@ -9,7 +9,7 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .cmult import ComplexMultiplier
-from .ecp5_primitives import RegisteredMultiplier, kept_register
+from .ecp5_primitives import RegisteredMultiplier, kept_register, kept_lut
 from .delay_line import DelayLine
 from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
@@ -506,12 +506,17 @@ class ChannelPipeline(wiring.Component):
             carry.eq(st.acc[F]),
             wrap.eq(carry & st.last),
             wrap_sw.eq(en & pend & wrap),
-            # force | wrap_sw, in two LUT levels: where force is 1 the rest
-            # does not matter, so its terms leave the enable and the request
-            # (from the enable's and the request's levels the switch and its
-            # copies were the 16-channel build's latest paths, 5.4-5.7 ns)
-            switch.eq(force | (step_v & ~st.muting & carry & st.last & (st.pending | flags.swap_req))),
         ]
+        # force | wrap_sw, in two LUT levels: where force is 1 the rest does
+        # not matter, so its terms leave the enable and the request (from the
+        # enable's and the request's levels the switch and its copies were
+        # the 16-channel build's latest paths, 5.4-5.7 ns). The step's half,
+        # an unmuted step that wraps, is a LUT of its own: synthesis shared
+        # ``carry & last`` with ``wrap`` and put a third LUT on the path
+        # (the switch's copy ``mute_sel``, 5.3 ns at 16 channels).
+        wrap_step = kept_lut(m, platform, [step_v, st.muting, carry, st.last],
+                             lambda s, mu, c, la: s & ~mu & c & la, "wrap_step")
+        m.d.comb += switch.eq(force | (wrap_step & (st.pending | flags.swap_req)))
         a = {}
         a["en"] = en
         a["switch"] = switch
@@ -522,7 +527,11 @@ class ChannelPipeline(wiring.Component):
         # the words left after an enabled step, chosen here beside the
         # subtraction (the wrap and the carry selecting in stage B, behind the
         # switch and the enable, were late at 16 channels, 5.4 ns)
-        a["left_step"] = Mux(wrap, st.len_m1, Mux(carry, st.left - 1, st.left))
+        # (``left - carry`` one carry chain, ``left`` plus all ones where
+        # carry, then a LUT of three inputs: the decrement's chain, then a
+        # multiplexer of five, was among the 16-channel build's paths at
+        # 4.8-5.0 ns; a subtraction would put an inverter on carry)
+        a["left_step"] = Mux(wrap, st.len_m1, (st.left + carry.replicate(len(st.left)))[:len(st.left)])
         a["left_one"] = st.left == 1
         a["len0"] = st.len_m1 == 0
         # the new stream's length - 1, length == 1 and the fetcher's restart
@@ -570,11 +579,19 @@ class ChannelPipeline(wiring.Component):
             a["issue"] = st.issuing
             a["last_tap"] = st.tap_last
             a["release"] = st.issuing & st.tap_last & st.adv
-            a["jstep"] = en & st.jne
+            # en & jne in two LUT levels, the unforced part a LUT of its own
+            # (synthesis made three of its seven inputs: 4.9 ns at 16 channels)
+            a["jstep"] = kept_lut(m, platform, [step_v, st.jne, st.muting, flags.force_swap],
+                                  lambda s, j, mu, fs: s & j & ~mu & ~fs, "jstep_unforced") \
+                & ~(flags.force_pending & st.pending)
             # after a step acc's bits from F - PB are frac's plus the
             # increment's plus the low part's carry: they differ where the
             # increment has bits there or the low part carries
-            a["jne_step"] = st.inc_hnz | (st.acc[:F - PB] + st.inc[:F - PB])[F - PB]
+            # (inc_hnz | carry as the carry out of one chain two bits longer:
+            # inc_hnz + 1 + carry at the top carries exactly when either is
+            # set; the OR as a LUT after the 27-bit chain was 5.0 ns at 16
+            # channels)
+            a["jne_step"] = (Cat(st.acc[:F - PB], st.inc_hnz) + Cat(st.inc[:F - PB], Const(1, 1)))[F - PB + 1]
             a["n_jne"] = rg.increment[F - PB:] != 0
             a["rpos0"] = st.cpos + T - 1
             a["rpos1"] = st.rpos - 1

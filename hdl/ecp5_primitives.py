@@ -14,6 +14,9 @@ for cocotb and Verilator) and to vendor primitives on an ECP5 platform:
   ``MULT18X18D`` output register (``REG_OUTPUT_CLK="CLK0"``).
 * :func:`kept_register`: a register that synthesis keeps as a copy of its
   own (``TRELLIS_FF`` instances), for fan-out trees.
+* :func:`kept_lut`: a function of up to four bits in a LUT of its own
+  (a ``LUT4`` instance), where logic synthesis would otherwise share a
+  term with other logic and put a LUT level more on a path.
 
 Why (measured, ``docs/bitstream.md``, "Why the block RAMs and multipliers are
 instantiated"): Yosys did not place a following fabric register into these
@@ -28,7 +31,7 @@ from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "is_ecp5", "dp16kd_mode",
+__all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "kept_lut", "lut4_init", "is_ecp5", "dp16kd_mode",
            "DP16KD_MODES", "BLOCK_RAM_SITES", "block_ram_rows"]
 
 #: DP16KD data widths and depths (single port of the pair), widest last.
@@ -89,6 +92,41 @@ def kept_register(m, platform, value, name, *, reset=False, init=0, domain="sync
             i_CLK=ClockSignal(domain), i_LSR=ResetSignal(domain) if reset else Const(0),
             i_DI=value[k], o_Q=q[k])
     return q
+
+
+def lut4_init(fn, inputs=4):
+    """The ``INIT`` of an ECP5 ``LUT4`` computing ``fn`` of its first
+    ``inputs`` pins (A the first argument, then B, C, D; the LUT's output
+    for pins DCBA = k is INIT bit k). ``fn`` is written with ``&``, ``|``,
+    ``^`` and ``~`` only, so that it means the same on bits as on Amaranth
+    values; unused pins do not matter."""
+    init = 0
+    for k in range(16):
+        init |= (fn(*((k >> j) & 1 for j in range(inputs))) & 1) << k
+    return init
+
+
+def kept_lut(m, platform, inputs, fn, name):
+    """``fn(*inputs)`` of up to four one-bit ``inputs``, combinational, in a
+    LUT of its own: on ECP5 a ``LUT4`` instance, which synthesis neither
+    merges into other logic nor builds from terms it shares with other
+    logic; elsewhere the plain expression. Where a function of eight bits
+    needs two LUT levels, ABC sometimes shares a two-input term with
+    another signal and makes it three (the switch of the channel pipeline,
+    docs/bitstream.md); a kept LUT for four of the bits leaves the rest one
+    LUT."""
+    inputs = [Value.cast(v) for v in inputs]
+    if not 1 <= len(inputs) <= 4 or any(len(v) != 1 for v in inputs):
+        raise ValueError(f"Inputs must be one to four one-bit values, not {inputs!r}")
+    z = Signal(name=name)
+    if not is_ecp5(platform):
+        m.d.comb += z.eq(fn(*inputs))
+        return z
+    pins = inputs + [Const(0, 1)] * (4 - len(inputs))
+    m.submodules[f"{name}_lut"] = Instance(
+        "LUT4", p_INIT=Const(lut4_init(fn, len(inputs)), 16),
+        i_A=pins[0], i_B=pins[1], i_C=pins[2], i_D=pins[3], o_Z=z)
+    return z
 
 
 def dp16kd_mode(width: int, depth: int):

@@ -378,10 +378,14 @@ class RegisterFile(wiring.Component):
 
             # the address's range compare a clock earlier, into a register of
             # its own (the compares and the access's flags in one clock were a
-            # 16-channel build's latest path, 5.5 ns)
-            early = at(g, wd - 3)
+            # 16-channel build's latest path, 5.5 ns), itself from registered
+            # parts two clocks earlier (in one clock, two LUT levels and a
+            # PFU multiplexer, it was among the next builds' late paths,
+            # 5.2 ns): above the bits where the group's first and last
+            # addresses differ, an equality; below them, the range
             addressed = Signal(name=f"hit_addr_{tag}")
-            m.d.sync += addressed.eq(_within(early.addr, lo_addr, hi_addr) | (early.addr == apply_addr))
+            m.d.sync += addressed.eq(_registered_address_match(
+                m, at(g, wd - 4).addr, [(lo_addr, hi_addr), (apply_addr, apply_addr)], f"hit_addr_{tag}"))
             hit = group_hit[g] = decoded(lambda op, addressed=addressed: op.valid & op.write & addressed,
                                          1, "hit", g)
             before = at(g, wd - 1)
@@ -840,6 +844,28 @@ def _reads(reads, op):
 def _unit_tag(unit):
     """The name tag of a group of channels' signals (None: the global registers')."""
     return "glob" if unit is None else f"g{unit}"
+
+
+def _registered_address_match(m, addr, ranges, name):
+    """Whether ``addr`` lies in one of ``ranges`` (inclusive ``(lo, hi)``
+    pairs), a clock late, from registered parts: for each range, ``addr``'s
+    bits above the lowest bit where lo and hi agree from the top are
+    compared with theirs, and the bits below with the range. Each part is a
+    function of one side of the address only; what is left after the
+    registers is an AND per range and their OR."""
+    terms = []
+    for k, (lo, hi) in enumerate(ranges):
+        split = (lo ^ hi).bit_length()
+        top = Signal(name=f"{name}_top{k}")
+        m.d.sync += top.eq(addr[split:] == lo >> split if split < len(addr) else 1)
+        mask = (1 << split) - 1
+        if split:
+            low = Signal(name=f"{name}_low{k}")
+            m.d.sync += low.eq(_within(addr[:split], lo & mask, hi & mask))
+            terms.append(top & low)
+        else:
+            terms.append(top)
+    return Cat(*terms).any()
 
 
 def _within(addr, lo, hi):

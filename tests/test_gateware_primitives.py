@@ -16,7 +16,7 @@ from amaranth.back import rtlil
 from amaranth.sim import Simulator
 
 from rast.hdl.ecp5_primitives import (RegisteredRAM, RegisteredMultiplier, dp16kd_mode, is_ecp5,
-                                      kept_register, block_ram_rows)
+                                      kept_register, kept_lut, block_ram_rows)
 
 
 class FakeECP5:
@@ -226,7 +226,89 @@ def test_kept_register_behaviour(reset):
     assert seen == [0 if reset and v == 9 else v * 7 % 64 for v in range(1, 21)]
 
 
+#: Functions for the kept LUT, each beside the same function on Python
+#: booleans (the reference, written independently of the bitwise form).
+KEPT_LUT_FUNCTIONS = [
+    (lambda s, mu, c, la: s & ~mu & c & la, lambda s, mu, c, la: s and not mu and c and la),
+    (lambda a, b, c, d: (a ^ b) | (c & ~d), lambda a, b, c, d: (a != b) or (c and not d)),
+    (lambda a, b, c: ~(a | b) ^ c, lambda a, b, c: (not (a or b)) != c),
+    (lambda a: ~a, lambda a: not a),
+]
+
+#: The LUT4's function as Lattice documents it: Z = INIT[{D, C, B, A}].
+LUT4_MODEL = """module LUT4(input A, input B, input C, input D, output Z);
+  parameter [15:0] INIT = 16'h0000;
+  assign Z = INIT[{D, C, B, A}];
+endmodule
+"""
+
+
+@pytest.mark.parametrize("k", range(len(KEPT_LUT_FUNCTIONS)))
+def test_kept_lut_behaviour(k):
+    """Off ECP5 a kept LUT is the plain expression: every input pattern
+    against the reference function."""
+    from amaranth.hdl import Module, Signal
+    fn, ref = KEPT_LUT_FUNCTIONS[k]
+    n = fn.__code__.co_argcount
+    m = Module()
+    ins = [Signal(name=f"i{j}") for j in range(n)]
+    z = kept_lut(m, None, ins, fn, "z")
+    seen = {}
+
+    async def bench(ctx):
+        for v in range(1 << n):
+            for j, i in enumerate(ins):
+                ctx.set(i, (v >> j) & 1)
+            seen[v] = ctx.get(z)
+
+    sim = Simulator(m)
+    sim.add_testbench(bench)
+    sim.run()
+    assert seen == {v: int(ref(*((v >> j) & 1 for j in range(n)))) for v in range(1 << n)}
+
+
+@pytest.mark.parametrize("k", range(len(KEPT_LUT_FUNCTIONS)))
+def test_kept_lut_instance_is_the_expression(k, tmp_path):
+    """On ECP5 the kept LUT is a LUT4 instance; Yosys's SAT solver proves it
+    (with the LUT4's documented function) equal to the plain expression for
+    every input, and finds a LUT4 with one INIT bit flipped different (so
+    that the check can fail)."""
+    import subprocess
+    from amaranth.hdl import Module, Signal
+    from rast.gateware.build import tool_env
+    fn = KEPT_LUT_FUNCTIONS[k][0]
+    n = fn.__code__.co_argcount
+    for tag, platform in (("gold", None), ("gate", FakeECP5())):
+        m = Module()
+        ins = [Signal(name=f"i{j}") for j in range(n)]
+        z = Signal(name="z")
+        m.d.comb += z.eq(kept_lut(m, platform, ins, fn, "kept"))
+        (tmp_path / f"{tag}.il").write_text(rtlil.convert(m, ports=[*ins, z], name=tag))
+    gate = (tmp_path / "gate.il").read_text()
+    init = re.search(r"parameter \\INIT 16'([01]{16})", gate).group(1)
+    flipped = init[:-1] + ("1" if init[-1] == "0" else "0")
+    (tmp_path / "flipped.il").write_text(gate.replace(f"16'{init}", f"16'{flipped}"))
+    (tmp_path / "lut4.v").write_text(LUT4_MODEL)
+    env = tool_env()
+
+    def equal(netlist):
+        script = (f"read_rtlil {netlist}; read_verilog lut4.v; hierarchy -top gate; flatten; "
+                  "read_rtlil gold.il; miter -equiv -flatten -make_assert gold gate miter; "
+                  "hierarchy -top miter; sat -verify -prove-asserts miter")
+        return subprocess.run([env["YOSYS"], "-q", "-p", script], cwd=tmp_path, env=env,
+                              capture_output=True).returncode == 0
+
+    assert "LUT4" in gate
+    assert equal("gate.il")
+    assert not equal("flipped.il")
+
+
 def test_parameter_errors():
+    from amaranth.hdl import Module, Signal
+    with pytest.raises(ValueError, match=r"^Inputs must be one to four one-bit values"):
+        kept_lut(Module(), None, [Signal(2)], lambda a: a, "z")
+    with pytest.raises(ValueError, match=r"^Inputs must be one to four one-bit values"):
+        kept_lut(Module(), None, [Signal() for _ in range(5)], lambda *a: a[0], "z")
     with pytest.raises(TypeError, match=r"^RAM width must be a positive integer, not 0$"):
         RegisteredRAM(0, 16)
     with pytest.raises(ValueError, match=r"^RAM sites must be 4 bel names \(one per block RAM of a "
