@@ -526,11 +526,11 @@ class ChannelPipeline(wiring.Component):
         a["step"] = st.acc[:F] + st.inc
         # the words left after an enabled step, chosen here beside the
         # subtraction (the wrap and the carry selecting in stage B, behind the
-        # switch and the enable, were late at 16 channels, 5.4 ns)
-        # (``left - carry`` one carry chain, ``left`` plus all ones where
-        # carry, then a LUT of three inputs: the decrement's chain, then a
+        # switch and the enable, were late at 16 channels, 5.4 ns); ``left -
+        # carry`` as ``left`` plus all ones where carry, one carry chain
+        # before a LUT of three inputs (the decrement's chain, then a
         # multiplexer of five, was among the 16-channel build's paths at
-        # 4.8-5.0 ns; a subtraction would put an inverter on carry)
+        # 4.8-5.0 ns)
         a["left_step"] = Mux(wrap, st.len_m1, (st.left + carry.replicate(len(st.left)))[:len(st.left)])
         a["left_one"] = st.left == 1
         a["len0"] = st.len_m1 == 0

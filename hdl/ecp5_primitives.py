@@ -31,8 +31,8 @@ from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "kept_lut", "lut4_init", "is_ecp5", "dp16kd_mode",
-           "DP16KD_MODES", "BLOCK_RAM_SITES", "block_ram_rows"]
+__all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "kept_lut", "lut4_init", "is_ecp5",
+           "dp16kd_mode", "DP16KD_MODES", "BLOCK_RAM_SITES", "block_ram_rows"]
 
 #: DP16KD data widths and depths (single port of the pair), widest last.
 DP16KD_MODES = ((1, 16384), (2, 8192), (4, 4096), (9, 2048), (18, 1024))

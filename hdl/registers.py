@@ -378,11 +378,9 @@ class RegisterFile(wiring.Component):
 
             # the address's range compare a clock earlier, into a register of
             # its own (the compares and the access's flags in one clock were a
-            # 16-channel build's latest path, 5.5 ns), itself from registered
-            # parts two clocks earlier (in one clock, two LUT levels and a
-            # PFU multiplexer, it was among the next builds' late paths,
-            # 5.2 ns): above the bits where the group's first and last
-            # addresses differ, an equality; below them, the range
+            # 16-channel build's latest path, 5.5 ns), itself from parts
+            # registered a clock before (the 16-bit compare in one clock,
+            # four LUT levels, was among the next builds' late paths, 5.2 ns)
             addressed = Signal(name=f"hit_addr_{tag}")
             m.d.sync += addressed.eq(_registered_address_match(
                 m, at(g, wd - 4).addr, [(lo_addr, hi_addr), (apply_addr, apply_addr)], f"hit_addr_{tag}"))
@@ -848,11 +846,12 @@ def _unit_tag(unit):
 
 def _registered_address_match(m, addr, ranges, name):
     """Whether ``addr`` lies in one of ``ranges`` (inclusive ``(lo, hi)``
-    pairs), a clock late, from registered parts: for each range, ``addr``'s
-    bits above the lowest bit where lo and hi agree from the top are
-    compared with theirs, and the bits below with the range. Each part is a
-    function of one side of the address only; what is left after the
-    registers is an AND per range and their OR."""
+    pairs), from parts registered a clock before: per range, the bits above
+    the highest bit in which lo and hi differ compared with theirs, and the
+    bits from that one down with the range (the group's registers are an
+    aligned block: its low bits' compare is with a constant range of four
+    bits at two slots per group). Left after the registers: an AND per
+    range and their OR."""
     terms = []
     for k, (lo, hi) in enumerate(ranges):
         split = (lo ^ hi).bit_length()
