@@ -5,7 +5,7 @@ the simulation tests). The bridge is the only master of the replay block's
 register bus (:class:`rast.hdl.registers.BusSignature`).
 """
 
-from amaranth.hdl import Module, Signal, Cat, Const
+from amaranth.hdl import Module, Signal, Cat, Const, Mux
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
@@ -76,12 +76,13 @@ class UARTBridge(wiring.Component):
         # registers (the byte's compares into the state were a 200 MHz
         # build's late path, 6.1 ns)
         byte, stb = Signal(8), Signal()
-        starts_frame, is_version, is_read, is_burst = Signal(), Signal(), Signal(), Signal()
+        go_frame, go_version, is_read, is_burst = Signal(), Signal(), Signal(), Signal()
         m.d.sync += [byte.eq(urx.data), stb.eq(urx.stb),
-                     starts_frame.eq((urx.data == CMD_WRITE) | (urx.data == CMD_BURST) | (urx.data == CMD_READ)),
-                     is_version.eq(urx.data == CMD_VERSION), is_read.eq(urx.data == CMD_READ),
+                     go_frame.eq(urx.stb & ((urx.data == CMD_WRITE) | (urx.data == CMD_BURST)
+                                            | (urx.data == CMD_READ))),
+                     go_version.eq(urx.stb & (urx.data == CMD_VERSION)), is_read.eq(urx.data == CMD_READ),
                      is_burst.eq(urx.data == CMD_BURST)]
-        cmd_read, cmd_burst = Signal(), Signal()
+        cmd_read, cmd_burst, cmd_write = Signal(), Signal(), Signal()
         # The reply queue has room for a byte in this clock, from a register
         # (the queue's level into the state was a latest path of a
         # 16-channel, 100 MS/s build, 7.1 ns). A byte put in the queue enters
@@ -118,22 +119,30 @@ class UARTBridge(wiring.Component):
         # among a 16-channel build's late paths)
         count_hi_zero = Signal()
         m.d.sync += count_hi_zero.eq(count[8:] == 0)
-        # ... and with the byte now received: a burst of no words (one flag
-        # register into the state, not two)
-        burst_empty = Signal()
-        m.d.sync += burst_empty.eq(count_hi_zero & (urx.data == 0))
+        # ``nh`` counts a field's bytes, one-hot (``nh[k]``: k bytes of the
+        # field taken). The byte's arrival is registered with nh's value
+        # beside it: nh changes only a clock after a byte (bytes are many
+        # clocks apart), so it is the same a clock later. The count's second
+        # byte also says whether the burst has no words (both bytes 0): one
+        # flag register into the state.
+        nh = Signal(4, init=1)
+        byte_n1, byte_n3, byte_n1_empty, byte_n1_more = (Signal(name=f"byte_{flag}")
+                                                         for flag in ("n1", "n3", "n1_empty", "n1_more"))
+        count_zero = count_hi_zero & (urx.data == 0)
+        m.d.sync += [byte_n1.eq(urx.stb & nh[1]), byte_n3.eq(urx.stb & nh[3]),
+                     byte_n1_empty.eq(urx.stb & nh[1] & count_zero),
+                     byte_n1_more.eq(urx.stb & nh[1] & ~count_zero)]
         # ``data`` gathers a write's bytes, ``reply`` holds the answer: each
         # register loaded in one state only (one register for both, loaded in
         # three states, was a two-pipeline build's worst path, 5.9 ns).
         # ``reply`` loads on registers alone: a read's answer wherever it
         # comes (only in READ_DATA: the bus answers the bridge's read only),
-        # the version in VERSION, from a flag set on the way in (the state's
-        # decode into its 32 enables was a 64-channel build's late path,
-        # 5.8 ns).
+        # the version in VERSION, from the state's own flip-flop (a decode
+        # of the state into its 32 enables was a 64-channel build's late
+        # path, 5.8 ns).
         data = Signal(32)
         reply = Signal(32)
-        load_version = Signal()
-        n = Signal(2)
+        rh = Signal(4, init=1)
         # ``timed_out`` is ``idle == timeout``, from a register of its own (the
         # 16-bit compare in front of the state was a 200 MHz build's worst path)
         idle = Signal(range(self._timeout + 1))
@@ -176,84 +185,75 @@ class UARTBridge(wiring.Component):
         r_valid = kept_register(m, platform, bus.r_valid, "r_valid", reset=True)
         m.d.sync += r_data.eq(bus.r_data)
 
+        # The state, one flip-flop per state (one-hot), each written as its
+        # own equation: Amaranth's FSM gives no documented control of its
+        # encoding, and as a 4-bit binary state behind enables the next state
+        # was three LUT levels from nine registers, among the 16-channel
+        # builds' late paths (5.0-5.35 ns). Every bit below is two levels.
+        s_idle = Signal(init=1)
+        (s_version, s_addr, s_count, s_data, s_write, s_read, s_read_data, s_reply,
+         s_ack) = (Signal(name=f"s_{state}") for state in ("version", "addr", "count", "data", "write", "read",
+                                                          "read_data", "reply", "ack"))
+
         with m.If(r_valid):
             m.d.sync += reply.eq(r_data)
-        with m.Elif(load_version):
+        with m.Elif(s_version):
             m.d.sync += reply.eq(BRIDGE_ID)
 
-        with m.FSM():
-            with m.State("IDLE"):
-                with m.If(stb):
-                    m.d.sync += [cmd_read.eq(is_read), cmd_burst.eq(is_burst), n.eq(0)]
-                    with m.If(starts_frame):
-                        m.next = "ADDR"
-                    with m.Elif(is_version):
-                        m.d.sync += load_version.eq(1)
-                        m.next = "VERSION"
-            with m.State("VERSION"):
-                m.d.sync += load_version.eq(0)
-                m.next = "REPLY"
-            with m.State("ADDR"):
-                with m.If(timed_out):
-                    m.next = "IDLE"
-                with m.Elif(stb):
-                    m.d.sync += [addr.eq(Cat(addr[8:], byte)), n.eq(n + 1)]
-                    with m.If(n == 1):
-                        m.d.sync += n.eq(0)
-                        with m.If(cmd_read):
-                            m.d.sync += r_stb.eq(1)
-                            m.next = "READ"
-                        with m.Elif(cmd_burst):
-                            m.next = "COUNT"
-                        with m.Else():
-                            m.d.sync += count_set_one.eq(1)
-                            m.next = "DATA"
-            with m.State("COUNT"):
-                with m.If(timed_out):
-                    m.next = "IDLE"
-                with m.Elif(stb):
-                    m.d.sync += [count_shift.eq(1), n.eq(n + 1)]
-                    with m.If(n == 1):
-                        m.d.sync += n.eq(0)
-                        with m.If(burst_empty):
-                            m.next = "ACK"
-                        with m.Else():
-                            m.next = "DATA"
-            with m.State("DATA"):
-                with m.If(timed_out):
-                    m.next = "IDLE"
-                with m.Elif(stb):
-                    m.d.sync += [data.eq(Cat(data[8:], byte)), n.eq(n + 1)]
-                    with m.If(n == 3):
-                        m.d.sync += w_stb.eq(1)
-                        m.next = "WRITE"
-            with m.State("WRITE"):                   # w_stb is high until the block takes it
-                with m.If(taken):
-                    m.d.sync += [w_stb.eq(0), count_down.eq(1)]
-                    with m.If(count_one):
-                        m.next = "ACK"
-                    with m.Else():
-                        m.next = "DATA"
-            with m.State("READ"):                    # r_stb is high until the block takes it
-                with m.If(taken):
-                    m.d.sync += r_stb.eq(0)
-                    m.next = "READ_DATA"
-            with m.State("READ_DATA"):
-                with m.If(r_valid):
-                    m.next = "REPLY"
-            with m.State("REPLY"):
-                # the byte selected by n, the word held: the reply queue's
-                # readiness enables two bits, not the whole word (bridge.data
-                # was among the 200 MHz build's late endpoints)
-                m.d.comb += [put_byte.eq(reply.word_select(n, 8)), put.eq(room)]
-                with m.If(room):
-                    m.d.sync += n.eq(n + 1)
-                    with m.If(n == 3):
-                        m.d.sync += [n.eq(0), self.frames.eq(self.frames + 1)]
-                        m.next = "IDLE"
-            with m.State("ACK"):
-                m.d.comb += [put_byte.eq(ACK), put.eq(room)]
-                with m.If(room):
-                    m.d.sync += self.frames.eq(self.frames + 1)
-                    m.next = "IDLE"
+        live = ~timed_out            # a frame's byte counts only before the timeout
+        addr_done = s_addr & live & byte_n1
+        m.d.sync += [
+            s_idle.eq(s_idle & ~go_frame & ~go_version | (s_addr | s_count | s_data) & timed_out
+                      | s_reply & room & rh[3] | s_ack & room),
+            s_version.eq(s_idle & go_version),
+            s_addr.eq(s_idle & go_frame | s_addr & live & ~byte_n1),
+            s_count.eq(addr_done & cmd_burst | s_count & live & ~byte_n1),
+            s_data.eq(addr_done & cmd_write | s_count & live & byte_n1_more
+                      | s_data & live & ~byte_n3 | s_write & taken & ~count_one),
+            s_write.eq(s_data & live & byte_n3 | s_write & ~taken),
+            s_read.eq(addr_done & cmd_read | s_read & ~taken),
+            s_read_data.eq(s_read & taken | s_read_data & ~r_valid),
+            s_reply.eq(s_version | s_read_data & r_valid | s_reply & ~(room & rh[3])),
+            s_ack.eq(s_count & live & byte_n1_empty | s_write & taken & count_one | s_ack & ~room),
+        ]
+        # A field's byte advances nh a clock later, from two registers (as
+        # five conditions on the state it was three LUT levels): a field's
+        # last byte back to none taken, any other one more.
+        field_byte, field_last = Signal(), Signal()
+        m.d.sync += [field_byte.eq((s_addr | s_count | s_data) & live & stb),
+                     field_last.eq((s_addr | s_count) & live & byte_n1)]
+        with m.If(s_idle | field_last):
+            m.d.sync += nh.eq(1)
+        with m.Elif(field_byte):
+            m.d.sync += nh.eq(Cat(nh[3], nh[:3]))
+        with m.If(s_idle & stb):
+            m.d.sync += [cmd_read.eq(is_read), cmd_burst.eq(is_burst), cmd_write.eq(~is_read & ~is_burst)]
+        with m.If(s_addr & live & stb):
+            m.d.sync += addr.eq(Cat(addr[8:], byte))
+        with m.If(addr_done):
+            m.d.sync += [r_stb.eq(cmd_read), count_set_one.eq(cmd_write)]
+        with m.If(s_count & live & stb):
+            m.d.sync += count_shift.eq(1)
+        with m.If(s_data & live & stb):
+            m.d.sync += data.eq(Cat(data[8:], byte))
+        with m.If(s_data & live & byte_n3):
+            m.d.sync += w_stb.eq(1)
+        with m.If(s_write & taken):                   # w_stb is high until the block takes it
+            m.d.sync += [w_stb.eq(0), count_down.eq(1)]
+        with m.If(s_read & taken):                    # r_stb is high until the block takes it
+            m.d.sync += r_stb.eq(0)
+        # REPLY: the byte rh selects (one-hot, 1 outside REPLY) of the word
+        # held (the reply queue's readiness enables the few bits of rh, not
+        # the whole word: bridge.data was among the 200 MHz build's late
+        # endpoints); ACK: the acknowledge byte
+        with m.If(~s_reply):
+            m.d.sync += rh.eq(1)
+        with m.Elif(room):
+            m.d.sync += rh.eq(Cat(rh[3], rh[:3]))
+        reply_byte = Const(0, 8)
+        for k in range(4):
+            reply_byte = reply_byte | (reply.word_select(k, 8) & rh[k].replicate(8))
+        m.d.comb += [put_byte.eq(Mux(s_ack, ACK, reply_byte)), put.eq((s_reply | s_ack) & room)]
+        with m.If(s_reply & room & rh[3] | s_ack & room):
+            m.d.sync += self.frames.eq(self.frames + 1)
         return m

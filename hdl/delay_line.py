@@ -154,15 +154,17 @@ class DelayLine(wiring.Component):
         return m
 
     def _read_address(self):
-        """``r_index - lag - r_delay`` modulo the depth, written as ``r_index +
-        ~r_delay + (1 - lag)`` (−x − 1 = ~x): at the lines' lag of 1 one carry
-        chain instead of two (the two in front of the read address registers
-        were among a 64-channel build's late paths, 5.3 ns)."""
+        """``r_index - lag - r_delay`` modulo the depth. At the lines' lag of 1
+        written as the true subtraction ``(2 r_index - (2 r_delay + 1)) >> 1``:
+        one carry chain whose cells take the subtrahend inverted (Yosys's ECP5
+        carry mapping), where ``r_index + ~r_delay`` put an inverter LUT in
+        front of every bit, and two chains in a row were among a 64-channel
+        build's late paths (5.3 ns)."""
         bits = len(self.r_index)
-        not_delay = ~Cat(self.r_delay, Const(0, bits - len(self.r_delay)))
-        total = self.r_index + not_delay
+        delay = Cat(self.r_delay, Const(0, bits - len(self.r_delay)))
+        total = (Cat(Const(0, 1), self.r_index) - Cat(Const(1, 1), delay))[1:bits + 1]
         offset = (1 - self._lag) % self._depth
-        return (total + offset)[:bits] if offset else total[:bits]
+        return (total + offset)[:bits] if offset else total
 
     def _elaborate_groups(self, m, platform):
         r_addr = Signal(range(self._depth))
