@@ -189,7 +189,8 @@ class UARTBridge(wiring.Component):
         # own equation: Amaranth's FSM gives no documented control of its
         # encoding, and as a 4-bit binary state behind enables the next state
         # was three LUT levels from nine registers, among the 16-channel
-        # builds' late paths (5.0-5.35 ns). Every bit below is two levels.
+        # builds' late paths (5.0-5.35 ns). Each bit below is one or two levels,
+        # DATA's three.
         s_idle = Signal(init=1)
         (s_version, s_addr, s_count, s_data, s_write, s_read, s_read_data, s_reply,
          s_ack) = (Signal(name=f"s_{state}") for state in ("version", "addr", "count", "data", "write", "read",
