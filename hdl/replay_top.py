@@ -207,7 +207,7 @@ class WindFarmReplay(wiring.Component):
             # the pins and back (n10_20_200's worst path, 7.3 ns, 5.5 routing),
             # and ``out_taken`` came from the output's pins through the FIFO
             # (7.4 ns). From M = 2 both enter the count a clock late, from
-            # registers: ``count`` is then the words accepted and not taken
+            # registers: the count is then the words accepted and not taken
             # before this clock. It decides ``ready`` in the period's last
             # clock, which accepts nothing (``ready`` is low there); a word
             # taken in that same clock frees its place for the next period's
@@ -217,13 +217,18 @@ class WindFarmReplay(wiring.Component):
             # (count <= in_flight + 1): one place fewer than exact, which the
             # FIFO's spare places cover at the full input rate
             # (tests/test_hdl_replay_top.py); the sum and compare in one clock
-            # were a 16-channel build's latest path (6.4 ns).
-            accepted = Signal()
-            taken = Signal()
-            count = in_flight + accepted - taken
-            m.d.sync += [accepted.eq(accept), taken.eq(out_taken),
+            # were a 16-channel build's latest path (6.4 ns). The registers
+            # hold the count's step, +1, -1 or 0, as the two's complement
+            # the adder takes (``change``: the low bit, ``down``: every bit
+            # above), so that the count is one carry chain from registers
+            # (the step's LUT between the taken flag's register and the chain
+            # was among the 16-channel builds' latest paths, 5.2-5.4 ns).
+            change = Signal()
+            down = Signal()
+            step = Cat(change, down.replicate(len(in_flight) - 1))
+            m.d.sync += [change.eq(accept ^ out_taken), down.eq(out_taken & ~accept),
                          ready.eq((slot == M - 1) & (in_flight < F - 1)),
-                         in_flight.eq(count)]
+                         in_flight.eq(in_flight + step)]
         m.d.comb += [self.i.ready.eq(ready), accept.eq(self.i.valid & ready),
                      out_taken.eq(self.o.valid & self.o.ready)]
         # The accept and its sample once more in registers (kept, so that
