@@ -526,12 +526,16 @@ class ChannelPipeline(wiring.Component):
         a["step"] = st.acc[:F] + st.inc
         # the words left after an enabled step, chosen here beside the
         # subtraction (the wrap and the carry selecting in stage B, behind the
-        # switch and the enable, were late at 16 channels, 5.4 ns); ``left -
-        # carry`` as ``left`` plus all ones where carry, one carry chain
-        # before a LUT of three inputs (the decrement's chain, then a
-        # multiplexer of five, was among the 16-channel build's paths at
-        # 4.8-5.0 ns)
-        a["left_step"] = Mux(wrap, st.len_m1, (st.left + carry.replicate(len(st.left)))[:len(st.left)])
+        # switch and the enable, were late at 16 channels, 5.4 ns): ``left -
+        # carry`` in one carry chain before a LUT of three inputs (the
+        # decrement's chain, then a multiplexer of five, was among the
+        # 16-channel build's paths at 4.8-5.0 ns), as (2 left + 1 - (2 carry
+        # + 1)) / 2, so that ``carry`` enters the chain at one bit (as
+        # ``left`` plus all ones where carry it entered at every bit, and its
+        # register, placed 1.9-2.4 ns from the chain, was late at two seeds
+        # of 16-channel builds, 5.2-5.3 ns)
+        left_dec = (Cat(Const(1, 1), st.left) - Cat(Const(1, 1), carry))[1:len(st.left) + 1]
+        a["left_step"] = Mux(wrap, st.len_m1, left_dec)
         a["left_one"] = st.left == 1
         a["len0"] = st.len_m1 == 0
         # the new stream's length - 1, length == 1 and the fetcher's restart
