@@ -7,11 +7,6 @@ its fill level (``w_rdy``), which put the level's compare and its fan-out to
 every distributed-RAM write enable in one clock: 6.9 ns, a 16-channel
 build's worst path. Here the write enable is the caller's ``w_en`` alone,
 and the level only decides ``r_rdy`` (through a register of its own).
-
-The words are kept in lanes of LANE_BITS bits, each a memory of its own read
-at a copy of its own of the read index (kept apart in synthesis): one index
-register for all 32 bits' distributed RAMs was a 16-channel build's latest
-path, 5.2 ns (2.7 of it the route into one RAM).
 """
 
 from amaranth.hdl import Module, Signal, Mux
@@ -19,12 +14,7 @@ from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from .ecp5_primitives import kept_register
-
-__all__ = ["OutputFIFO", "LANE_BITS"]
-
-#: Bits per memory lane (each with its own copy of the read index).
-LANE_BITS = 8
+__all__ = ["OutputFIFO"]
 
 
 class OutputFIFO(wiring.Component):
@@ -56,7 +46,10 @@ class OutputFIFO(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        D, W = self._depth, self._width
+        D = self._depth
+        m.submodules.storage = storage = Memory(shape=self._width, depth=D, init=[])
+        w_port = storage.write_port()
+        r_port = storage.read_port(domain="comb")
         produce = Signal(range(D))
         consume = Signal(range(D))
         level = Signal(range(D + 1))
@@ -64,27 +57,18 @@ class OutputFIFO(wiring.Component):
         # the read's enables was a 16-channel build's latest path (5.9 ns)
         nonempty = Signal()
         do_read = Signal()
-        consume_next = Signal(range(D))
         m.d.comb += [
             self.r_rdy.eq(nonempty),
             do_read.eq(self.r_rdy & self.r_en),
-            consume_next.eq(Mux(do_read, Mux(consume == D - 1, 0, consume + 1), consume)),
+            w_port.en.eq(self.w_en), w_port.addr.eq(produce), w_port.data.eq(self.w_data),
+            r_port.addr.eq(consume), self.r_data.eq(r_port.data),
         ]
-        m.d.sync += consume.eq(consume_next)
-        for k, lo in enumerate(range(0, W, LANE_BITS)):
-            hi = min(W, lo + LANE_BITS)
-            lane = Memory(shape=hi - lo, depth=D, init=[])
-            m.submodules[f"lane{k}"] = lane
-            w_port = lane.write_port()
-            r_port = lane.read_port(domain="comb")
-            m.d.comb += [w_port.en.eq(self.w_en), w_port.addr.eq(produce), w_port.data.eq(self.w_data[lo:hi]),
-                         r_port.addr.eq(kept_register(m, platform, consume_next, f"consume_lane{k}",
-                                                      reset=True)),
-                         self.r_data[lo:hi].eq(r_port.data)]
         with m.If(self.w_en):
             m.d.sync += produce.eq(Mux(produce == D - 1, 0, produce + 1))
             with m.If((level == D) & ~do_read):
                 m.d.sync += self.overrun.eq(1)
+        with m.If(do_read):
+            m.d.sync += consume.eq(Mux(consume == D - 1, 0, consume + 1))
         with m.If(self.w_en & ~do_read & (level != D)):
             m.d.sync += level.eq(level + 1)
         with m.If(do_read & ~self.w_en):

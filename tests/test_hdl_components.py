@@ -1,7 +1,6 @@
 """Complex multiplier, delay line and one channel's stream against the bit-exact model's functions."""
 
 import itertools
-import re
 import warnings
 from fractions import Fraction
 
@@ -160,22 +159,6 @@ def test_output_fifo_keeps_order_and_flags_an_overrun(depth):
 
     simulate(dut, bench)
     assert len(written) > 800 and len(read) > 700
-
-
-def test_output_fifo_lanes_read_at_their_own_index_copies():
-    """On ECP5 the FIFO's 32-bit words are four memories of 8 bits, each
-    read at a kept copy of its own of the read index (TRELLIS_FF instances,
-    which synthesis does not merge), reset with the domain as the index."""
-    from amaranth.back import rtlil
-    from rast.hdl.output_fifo import OutputFIFO, LANE_BITS
-    depth = 18
-    text = rtlil.convert(OutputFIFO(32, depth), platform=type("ECP5", (), {"family": "ecp5"})())
-    lanes = 32 // LANE_BITS
-    index_bits = (depth - 1).bit_length()
-    assert lanes == 4 and text.count("cell \\TRELLIS_FF") == lanes * index_bits
-    assert len(set(re.findall(r"consume_lane(\d+)_ff\d+", text))) == lanes
-    assert set(re.findall(r"connect \\LSR (\S+)", text)) == {"\\rst"}         # reset with the index
-    assert "cell \\TRELLIS_FF" not in rtlil.convert(OutputFIFO(32, depth), platform=None)
 
 
 def test_stream_pool_ecp5_register_trees():
