@@ -144,7 +144,10 @@ class _BitTimer:
 
 
 class UARTTx(wiring.Component):
-    """Transmitter: a byte is taken when ``valid & ready``.
+    """Transmitter: a byte is taken when ``ready`` (the line idle, and
+    ``valid`` up in the clock before: ``valid`` is taken in a register of its
+    own, so it must stay up until its byte is taken, as a FIFO's ``r_rdy``
+    does; ``ready`` is then ``valid & ready``).
 
     Members
     -------
@@ -175,14 +178,22 @@ class UARTTx(wiring.Component):
         # count (the compare into the reply queue's level, through its read
         # enable, was among a 200 MHz build's late paths)
         idle = Signal(init=1)
-        m.d.comb += self.ready.eq(idle)
+        # valid a clock late, from a register (the reply queue's level
+        # through its r_rdy into the shift register's enables was among the
+        # 16-channel build's late paths, 4.97-5.15 ns): the shift register
+        # loads from two flip-flops. A byte is at least ten bit times long,
+        # so the next take sees a valid that is current.
+        valid = Signal()
+        m.d.sync += valid.eq(self.valid)
+        take = Signal()
+        m.d.comb += [take.eq(idle & valid), self.ready.eq(take)]
         # the line from a register of its own, a clock behind the shift
         # register, free to sit by the pin (as the shift register's bit,
         # enabled from the bit timer, it was among the 16-channel build's
         # paths at 4.9-5.0 ns)
         m.d.sync += self.tx.eq(shreg[0])
         with m.If(idle):
-            with m.If(self.valid):
+            with m.If(take):
                 m.d.sync += [shreg.eq(Cat(Const(0, 1), self.data, Const(1, 1))), left.eq(10), idle.eq(0)]
                 timer.load(d - 1)
         with m.Elif(timer.expired):
