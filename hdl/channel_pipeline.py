@@ -980,7 +980,8 @@ class ChannelPipeline(wiring.Component):
         m.d.comb += [cm.en.eq(1), cm.a.eq(win.o), cm.b.eq(word), cm.b2.eq(word2)]
         geff = Signal(rg.gain.shape(), name="geff")
         m.d.comb += geff.eq(Mux(rg.enable, rg.gain, 0))
-        g = _delay(m, geff, WORD_CYCLES - 1 + cm.latency, "gain", data=True)
+        # (its last two registers the copies below)
+        g = _delay(m, geff, WORD_CYCLES - 2 + cm.latency, "gain", data=True)
         q = Signal(IQ(SCALED_WIDTH), name="q", reset_less=True)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(cm.o_width, len(geff) + 1, input_reg=True)
@@ -988,10 +989,14 @@ class ChannelPipeline(wiring.Component):
             # the product again in a register before the multiplier (the
             # rounding's register sits with its adder, and from there into the
             # multiplier was the latest path of a 16-channel build, 6.9 ns,
-            # 6.3 of it one route); the gain's last register a copy for each
-            # multiplier (kept)
+            # 6.3 of it one route); the gain's last two registers a copy for
+            # each multiplier (kept: with one, the route from its copy into
+            # the multiplier was a 16-channel build's latest path, 5.02 ns,
+            # 4.41 of it that route)
+            gain_near = kept_register(m, platform, kept_register(m, platform, g, f"gain_far_{part}"),
+                                      f"gain_{part}")
             m.d.comb += [mul.en.eq(1), mul.a.eq(_delay(m, getattr(cm.o, part), 1, f"gain_a_{part}", data=True)),
-                         mul.b.eq(kept_register(m, platform, g, f"gain_{part}"))]
+                         mul.b.eq(gain_near)]
             prod = _delay(m, mul.o, 1, f"gain_prod_{part}", data=True)      # in fabric, next to the adder
             m.d.sync += getattr(q, part).eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
         assert 1 + 2 + 1 + 1 == GAIN_CYCLES
@@ -1122,11 +1127,19 @@ class ChannelPipeline(wiring.Component):
             # rounded > hi and rounded < lo, decided on the accumulator beside
             # the rounding (floor((a + half) / 2**F) > hi <=> a >= (hi + 1) * 2**F
             # - half, < lo <=> a < lo * 2**F - half): the compares after the
-            # rounding, then the clip, were 7.5 ns in a two-pipeline build
+            # rounding, then the clip, were 7.5 ns in a two-pipeline build).
+            # Each compare in two parts: the lower half's a clock earlier,
+            # beside it, then 2 a_hi + (a_lo >= k_lo) >= 2 k_hi + 1, which is
+            # a >= k, on the upper half's width (the whole accumulator's
+            # compare was among a 16-channel build's late paths, 4.8-4.9 ns).
             over = Signal(name=f"fir_over_{part}", reset_less=True)
             under = Signal(name=f"fir_under_{part}", reset_less=True)
-            m.d.sync += [over.eq(acc >= ((hi + 1) << FIR_COEF_FRAC) - half),
-                         under.eq(acc < (lo << FIR_COEF_FRAC) - half)]
+            for flag, bound, below in ((over, ((hi + 1) << FIR_COEF_FRAC) - half, False),
+                                       (under, (lo << FIR_COEF_FRAC) - half, True)):
+                lo_ge = Signal(name=f"{flag.name}_lo", reset_less=True)
+                m.d.sync += lo_ge.eq(acc_lo >= (bound & ((1 << ACC_LOW_BITS) - 1)))
+                ge = Cat(lo_ge, acc_hi).as_signed() >= 2 * (bound >> ACC_LOW_BITS) + 1
+                m.d.sync += flag.eq(~ge if below else ge)
             m.d.sync += getattr(res, part).eq(Mux(over, hi, Mux(under, lo, rounded)))
         # addresses, ROM levels (the word beside), multiplier in and out, its
         # output again, product, the accumulator's two halves, round, saturate
