@@ -5,7 +5,7 @@ from functools import reduce
 
 from amaranth.hdl import Module, Signal, Mux, Cat, Const, signed
 from amaranth.lib import wiring, stream, data
-from amaranth.lib.fifo import SyncFIFO
+from amaranth.lib.fifo import SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
@@ -394,8 +394,9 @@ class WindFarmReplay(wiring.Component):
             # request registers, the top's request register; one more with
             # the group's), so a pipeline is offered fetches only while the
             # FIFO, as counted a clock before, has room for every offer since.
-            m.submodules.req_fifo = req_fifo = SyncFIFO(width=len(req_addr) + pool_tag.size,
-                                                       depth=SDRAM_REQUEST_FIFO)
+            # (buffered: the pool decides on its head from registers)
+            m.submodules.req_fifo = req_fifo = SyncFIFOBuffered(width=len(req_addr) + pool_tag.size,
+                                                               depth=SDRAM_REQUEST_FIFO)
             credit = Signal()
             req_lost = Signal()
             m.d.sync += credit.eq(req_fifo.level <= SDRAM_REQUEST_FIFO - V - 4 - REQUEST_CYCLES - grouped)

@@ -39,7 +39,10 @@ class SDRAMStreamPool(wiring.Component):
     * fetches ``r_valid``/``r_ready``/``r_addr``/``r_tag``: a fetch is taken
       when ``r_valid & r_ready``; a refused one is the engine's to retry.
       ``r_ready`` is low while ``queue_depth`` reads are outstanding (issued and
-      not yet answered) or the command queue is full.
+      not yet answered; counted a clock before, so it may stay low a clock
+      longer). A taken access enters the queues a clock later, from a
+      register: every decision here is taken from registers, for a 200 MHz
+      fabric.
     * answers ``d_valid``/``d_tag``/``d_data``: one per taken fetch, **in the
       order taken**, ``d_tag`` the fetch's tag. No back-pressure (the engine
       takes every answer; room for all outstanding answers is reserved).
@@ -137,13 +140,24 @@ class SDRAMStreamPool(wiring.Component):
         m.submodules.tag_q = tag_q = SyncFIFO(width=self._tag_width + 1, depth=Q)
 
         # --- engine side (sync) -------------------------------------------------
+        # At a 200 MHz fabric every decision here is taken from registers, and
+        # a taken access reaches the queues a clock later from a stage
+        # register (the take decoded from the requests straight into the
+        # queues' write ports was a 200 MHz SDRAM build's latest path, 9.1 ns).
         outstanding = Signal(range(Q + 1))
-        room = (outstanding < Q) & tag_q.w_rdy & cmd_q.w_rdy
+        # room: fewer than Q reads outstanding, from the count a clock before
+        # (fewer than Q - 1 then, as one may have been taken since): reads
+        # outstanding reach Q, never more, so the tag queue (Q) never fills
+        # and the answer queue (2Q) has room for every answer.
+        room = Signal()
+        m.d.sync += room.eq(outstanding < Q - 1)
         # The command queue holds 4Q; reads are at most Q of it and host writes
-        # are taken while it holds fewer than 2Q, so neither ever finds it full:
-        # a write burst delays a fetch (by 2Q writes at most), never refuses it,
-        # and outstanding reads never block a write.
-        write_room = cmd_q.w_level < 2 * Q
+        # are taken while it held fewer than 2Q - 2 a clock before (a clock of
+        # this register's, one of the stage's), so at most 2Q: neither ever
+        # finds it full. A write burst delays a fetch (by 2Q writes at most),
+        # never refuses it, and outstanding reads never block a write.
+        write_room = Signal()
+        m.d.sync += write_room.eq(cmd_q.w_level < 2 * Q - 2)
         # Fetches first, except that a host operation kept waiting by a taken
         # fetch gets the next clock it can use (host_turn): under any fetch load
         # the host is served at least every other accepted operation.
@@ -163,18 +177,26 @@ class SDRAMStreamPool(wiring.Component):
             m.d.sync += host_turn.eq(0)
         with m.Elif(take_fetch & (self.rd_valid | self.w_valid)):
             m.d.sync += host_turn.eq(1)
-        cmd_in = cmd_layout(cmd_q.w_data)
+        # the stage: the taken access's command and (a read's) tag
+        cmd_stage = Signal(cmd_layout)
+        cmd_stage_valid = Signal()
+        tag_stage = Signal(self._tag_width + 1)
+        tag_stage_valid = Signal()
+        m.d.sync += [cmd_stage_valid.eq(take_fetch | take_hread | take_write),
+                     tag_stage_valid.eq(take_fetch | take_hread)]
         with m.If(take_fetch):
-            m.d.comb += [cmd_in.addr.eq(self.r_addr), tag_q.w_data.eq(Cat(self.r_tag, 0))]
+            m.d.sync += [cmd_stage.we.eq(0), cmd_stage.addr.eq(self.r_addr), tag_stage.eq(Cat(self.r_tag, 0))]
         with m.Elif(take_hread):
-            m.d.comb += [cmd_in.addr.eq(self.rd_addr), tag_q.w_data.eq(1 << self._tag_width)]
+            m.d.sync += [cmd_stage.we.eq(0), cmd_stage.addr.eq(self.rd_addr), tag_stage.eq(1 << self._tag_width)]
         with m.Else():
-            m.d.comb += [cmd_in.addr.eq(self.w_addr), cmd_in.data.eq(self.w_data), cmd_in.we.eq(1)]
+            m.d.sync += [cmd_stage.addr.eq(self.w_addr), cmd_stage.data.eq(self.w_data), cmd_stage.we.eq(1)]
         m.d.comb += [
-            cmd_q.w_en.eq(take_fetch | take_hread | take_write),
-            tag_q.w_en.eq(take_fetch | take_hread),
+            cmd_q.w_en.eq(cmd_stage_valid), cmd_q.w_data.eq(cmd_stage),
+            tag_q.w_en.eq(tag_stage_valid), tag_q.w_data.eq(tag_stage),
         ]
-        # Answers: the answer queue and the tag queue pop together; outputs registered.
+        # Answers: the answer queue and the tag queue pop together (a read's
+        # tag is in its queue long before its answer is in the answer queue);
+        # outputs registered.
         pop = ans_q.r_rdy & tag_q.r_rdy
         m.d.comb += [ans_q.r_en.eq(pop), tag_q.r_en.eq(pop)]
         host = tag_q.r_data[self._tag_width]
