@@ -533,8 +533,12 @@ class ChannelPipeline(wiring.Component):
         # + 1)) / 2, so that ``carry`` enters the chain at one bit (as
         # ``left`` plus all ones where carry it entered at every bit, and its
         # register, placed 1.9-2.4 ns from the chain, was late at two seeds
-        # of 16-channel builds, 5.2-5.3 ns)
-        left_dec = (Cat(Const(1, 1), st.left) - Cat(Const(1, 1), carry))[1:len(st.left) + 1]
+        # of 16-channel builds, 5.2-5.3 ns). Where the ring is registers, the
+        # carry comes from a copy of its own (below, at the ring: the head's
+        # carry, which fans out to the step's decisions, was 2.0 ns of route
+        # from the chain, a 16-channel build's latest path, 5.06 ns).
+        carry_left = Signal(name="carry_left")
+        left_dec = (Cat(Const(1, 1), st.left) - Cat(Const(1, 1), carry_left))[1:len(st.left) + 1]
         a["left_step"] = Mux(wrap, st.len_m1, left_dec)
         a["left_one"] = st.left == 1
         a["len0"] = st.len_m1 == 0
@@ -746,6 +750,14 @@ class ChannelPipeline(wiring.Component):
         # (input_reg: the update's end into its RAM was 9.3 ns at 64 channels)
         last, regs = _ring_delay(m, nxt, ring_len, ring_inits, "st_ring", input_reg=True)
         m.d.comb += head.eq(last)
+        if ring_len < RAM_DELAY_MIN:
+            # the copy of the head's carry for ``left - carry`` (above): the
+            # same input as the head's register, the same value at power-up and reset
+            head_in = regs[-2] if ring_len > 1 else nxt
+            m.d.comb += carry_left.eq(kept_register(m, platform, head_in.acc[F], "carry_left_q", reset=True,
+                                                    init=(ring_inits[-1]["acc"] >> F) & 1))
+        else:
+            m.d.comb += carry_left.eq(carry)
         #: Every slot's state in the ring's registers (for the formal checks):
         #: the head and the others of a short ring, and the state part of the
         #: update's second stage (M >= 2).
