@@ -9,7 +9,7 @@ build's worst path. Here the write enable is the caller's ``w_en`` alone,
 and the level only decides ``r_rdy`` (through a register of its own).
 """
 
-from amaranth.hdl import Module, Signal, Mux
+from amaranth.hdl import Cat, Module, Signal, Mux
 from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
@@ -52,7 +52,7 @@ class OutputFIFO(wiring.Component):
         r_port = storage.read_port(domain="comb")
         produce = Signal(range(D))
         consume = Signal(range(D))
-        level = Signal(range(D + 1))
+        level = Signal(range(D + 2))      # D + 1 after an overrun (an error, flagged)
         # level != 0 in a register of its own: the level's compare in front of
         # the read's enables was a 16-channel build's latest path (5.9 ns)
         nonempty = Signal()
@@ -69,10 +69,13 @@ class OutputFIFO(wiring.Component):
                 m.d.sync += self.overrun.eq(1)
         with m.If(do_read):
             m.d.sync += consume.eq(Mux(consume == D - 1, 0, consume + 1))
-        with m.If(self.w_en & ~do_read & (level != D)):
-            m.d.sync += level.eq(level + 1)
-        with m.If(do_read & ~self.w_en):
-            m.d.sync += level.eq(level - 1)
+        # level + w_en - do_read in one carry chain, the step (+1, -1, 0) in
+        # its two's complement from the two strobes (enables in front of
+        # the increment and the decrement put the level's compare and two
+        # LUT levels on the chain's path: 5.02 ns at a 16-channel build)
+        step = Signal(len(level), name="level_step")
+        m.d.comb += step.eq(Cat(self.w_en ^ do_read, (do_read & ~self.w_en).replicate(len(level) - 1)))
+        m.d.sync += level.eq(level + step)
         with m.If(self.w_en):
             m.d.sync += nonempty.eq(1)
         with m.Elif(do_read & (level == 1)):
