@@ -1020,6 +1020,7 @@ class ChannelPipeline(wiring.Component):
         # (its last two registers the copies below)
         g = _delay(m, geff, WORD_CYCLES - 2 + cm.latency, "gain", data=True)
         q = Signal(IQ(SCALED_WIDTH), name="q", reset_less=True)
+        q_sum = {}          # a kept copy of q for the period sum's adder (below)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(cm.o_width, len(geff) + 1, input_reg=True)
             m.submodules[f"gain_mul_{part}"] = mul
@@ -1035,7 +1036,10 @@ class ChannelPipeline(wiring.Component):
             m.d.comb += [mul.en.eq(1), mul.a.eq(_delay(m, getattr(cm.o, part), 1, f"gain_a_{part}", data=True)),
                          mul.b.eq(gain_near)]
             prod = _delay(m, mul.o, 1, f"gain_prod_{part}", data=True)      # in fabric, next to the adder
-            m.d.sync += getattr(q, part).eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
+            rounded = Signal(signed(SCALED_WIDTH), name=f"q_next_{part}")
+            m.d.comb += rounded.eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
+            m.d.sync += getattr(q, part).eq(rounded)
+            q_sum[part] = kept_register(m, platform, rounded, f"q_sum_{part}").as_signed()
         assert 1 + 2 + 1 + 1 == GAIN_CYCLES
         # The period's sum: the slots' q added into an accumulator that is
         # cleared (its registers' reset) where the next clock's q is a
@@ -1047,14 +1051,19 @@ class ChannelPipeline(wiring.Component):
         q_slot_ahead = _delay(m, vslot, WORD_CYCLES - 1 + cm.latency + GAIN_CYCLES - 2, "qslot")
         period_ends = Signal(name="period_ends")
         m.d.sync += period_ends.eq(q_slot_ahead == 0)
+        # The period's sum from an adder of its own, beside ``sum``'s registers
+        # (with q's kept copy: Yosys would merge two adders of the same
+        # inputs): one adder into both the accumulator and ``sum`` had two
+        # registers per bit to place by one carry chain, and the
+        # accumulator's, put away from it, was a route of 1.7 ns back into
+        # the chain (5.03-5.28 ns, the latest path at two of three seeds of
+        # 16-channel builds).
         for part in ("re", "im"):
             s_ = getattr(self.sum, part)
             acc = Signal.like(s_, name=f"slot_acc_{part}", reset_less=True)
-            total = Signal.like(s_, name=f"slot_total_{part}")
-            m.d.comb += total.eq(acc + getattr(q, part))
-            m.d.sync += acc.eq(_cleared(total, period_ends))
+            m.d.sync += acc.eq(_cleared(acc + getattr(q, part), period_ends))
             with m.If(period_ends):
-                m.d.sync += s_.eq(total)
+                m.d.sync += s_.eq(acc + q_sum[part])
         return m
 
     def _elaborate_mac(self, m, platform, st, cache, cache_read, mac_put, mac_val):
