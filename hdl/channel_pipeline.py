@@ -673,6 +673,8 @@ class ChannelPipeline(wiring.Component):
                         m.d.comb += nxt.issuing.eq(0)
                 m.d.comb += nxt.jobs.eq(Mux(x.jstep == x.start, x.jobs,
                                             Mux(x.jstep, x.jobs_up, x.jobs_dn)))
+                with m.If(x.jstep):
+                    m.d.comb += [nxt.u0.eq(x.u1), nxt.u1.eq(x.u2)]
         # The fetcher's index, address and position, each field selected by a
         # copy of its own of the selects (kept): one register of each select
         # for all ~50 bits sat far from most of them (the fetch address was
@@ -736,15 +738,6 @@ class ChannelPipeline(wiring.Component):
                              nxt.cphase.eq(x.tp), nxt.dest.eq(x.seq)]
             with m.Elif(r_issue):
                 m.d.comb += [nxt.rpos.eq(x.rpos1), nxt.tap.eq(x.tap1), nxt.tap_last.eq(x.tap1_last)]
-            # the U values shift at a J step without a switch, selected by a
-            # register of its own (kept; from mid's switch, which selects
-            # ~200 bits, the route to the U values was 3.4 ns of a 16-channel
-            # build's latest path, 5.09 ns)
-            u_shift = ~switch & a["jstep"]
-            if M > 1:
-                u_shift = kept_register(m, platform, u_shift, "u_shift", reset=True)
-            with m.If(u_shift):
-                m.d.comb += [nxt.u0.eq(x.u1), nxt.u1.eq(x.u2)]
             # a finished job's U value (never in the same visit as a J step:
             # the increment limit, FIR_MIN_SAMPLES_PER_STEP)
             for k in range(3):
