@@ -144,10 +144,11 @@ class _BitTimer:
 
 
 class UARTTx(wiring.Component):
-    """Transmitter: a byte is taken when ``ready`` (the line idle, and
-    ``valid`` up in the clock before: ``valid`` is taken in a register of its
-    own, so it must stay up until its byte is taken, as a FIFO's ``r_rdy``
-    does; ``ready`` is then ``valid & ready``).
+    """Transmitter: a byte is taken in a clock with ``ready``, which is high
+    when the line is idle and ``valid`` was up in the clock before (``valid``
+    goes through a register of its own, so it must stay up until its byte is
+    taken, as a FIFO's ``r_rdy`` does; a clock with ``ready`` then has
+    ``valid`` too).
 
     Members
     -------
