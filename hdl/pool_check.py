@@ -78,5 +78,6 @@ class PoolReadCheck(wiring.Component):
             with m.If(byte != 0):
                 m.d.sync += [reg.eq(crc32_step(reg, word[:8])), word.eq(word >> 8), byte.eq(byte - 1)]
             with m.If(byte == 1):
-                m.d.sync += [self.rd_valid.eq(left != 0), self.busy.eq(left != 0)]
+                more = left != 0
+                m.d.sync += [self.rd_valid.eq(more), self.busy.eq(more)]
         return m

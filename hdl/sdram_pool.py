@@ -188,8 +188,8 @@ class SDRAMStreamPool(wiring.Component):
         cmd_stage_valid = Signal()
         tag_stage = Signal(self._tag_width + 1)
         tag_stage_valid = Signal()
-        m.d.sync += [cmd_stage_valid.eq(take_fetch | take_hread | take_write),
-                     tag_stage_valid.eq(take_fetch | take_hread)]
+        taken = take_fetch | take_hread            # a read (fetch or host read) taken
+        m.d.sync += [cmd_stage_valid.eq(taken | take_write), tag_stage_valid.eq(taken)]
         with m.If(take_fetch):
             m.d.sync += [cmd_stage.we.eq(0), cmd_stage.addr.eq(self.r_addr), tag_stage.eq(Cat(self.r_tag, 0))]
         with m.Elif(take_hread):
@@ -211,7 +211,6 @@ class SDRAMStreamPool(wiring.Component):
             self.d_data.eq(ans_q.r_data),
             self.rd_data_valid.eq(pop & host), self.rd_data.eq(ans_q.r_data),
         ]
-        taken = take_fetch | take_hread
         with m.If(taken & ~pop):
             m.d.sync += outstanding.eq(outstanding + 1)
         with m.Elif(~taken & pop):
