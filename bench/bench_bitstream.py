@@ -1,12 +1,14 @@
 """The fmax / resource ladder of the replay block on the LFE5U-85F-6 (ULX3S).
 
 Builds each configuration with the open toolchain (one nextpnr at a time)
-into ``build/bench_bitstream/<label>/`` and prints one row per build:
-requested clock, achieved fmax, timing met, LUTs, FFs, DSPs, block RAMs, and
-what limits it (the critical path's end points). ``--reuse`` reads reports
-already built instead of building again; ``--only LABEL`` builds one rung.
+into ``build/bench_bitstream/<label>/seed<S>/`` and prints one row per build:
+requested clock, nextpnr seed, achieved fmax, timing met, LUTs, FFs, DSPs,
+block RAMs, and what limits it (the critical path's end points). ``--reuse``
+reads reports already built instead of building again; ``--only LABEL``
+builds one rung; ``--seeds 1 2 3`` builds each rung at each seed (a rung
+meets its clock when every seed does).
 
-    .venv/bin/python bench/bench_bitstream.py [--reuse] [--only n8_100] [--late 30]
+    .venv/bin/python bench/bench_bitstream.py [--reuse] [--only n16_100_200] [--seeds 1 2 3] [--late 30]
 
 ``--late K`` also lists, from nextpnr's detailed timing report, the K signals
 whose endpoints the data reaches latest after the asked clock period: the
@@ -52,7 +54,7 @@ def row(label, what, rep):
           f"{cp.get('delay_ns', 0):.1f} ns routing)"
     return (f"{label:<12} {rep['config']['channels']:>3} {rep['build']['sample_rate_hz'] / 1e6:>5.0f} "
             f"{rep['build']['slots']:>3} {rep['config']['pool_words']:>6} "
-            f"{rep['config']['clock_mhz']:>6.0f} {t['fmax_mhz']:>7.1f} {'yes' if t['met'] else 'NO':>4} "
+            f"{rep['config']['clock_mhz']:>6.0f} {rep['config']['seed']:>4} {t['fmax_mhz']:>7.1f} {'yes' if t['met'] else 'NO':>4} "
             f"{r['luts']['used']:>6} {r['ffs']['used']:>6} {r['dsps']['used']:>4}/{r['dsps']['available']} "
             f"{r['block_rams']['used']:>4}/{r['block_rams']['available']}  {lim}\n"
             f"{'':<12} {what}")
@@ -115,6 +117,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reuse", action="store_true", help="print reports already built")
     ap.add_argument("--only", action="append", choices=sorted(LADDER), help="build only these rungs")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1], metavar="S",
+                    help="nextpnr seeds to build each rung at (default: 1)")
     ap.add_argument("--capacity", action="store_true", help="only print the turbines-per-device table")
     ap.add_argument("--late", type=int, metavar="K", default=0,
                     help="build with nextpnr's detailed timing report and list the K signals whose "
@@ -123,22 +127,28 @@ def main():
     if args.capacity:
         seed_capacity()
         return
-    print(f"{'label':<12} {'N':>3} {'fs':>5} {'M':>3} {'pool':>6} {'fclk':>6} {'fmax':>7} {'met':>4} {'LUTs':>6} "
+    print(f"{'label':<12} {'N':>3} {'fs':>5} {'M':>3} {'pool':>6} {'fclk':>6} {'seed':>4} {'fmax':>7} {'met':>4} {'LUTs':>6} "
           f"{'FFs':>6} {'DSPs':>8} {'BRAMs':>8}  critical path")
     for label, (what, kw) in LADDER.items():
         if args.only and label not in args.only:
             continue
-        out = ROOT / label
-        rp = out / "report.json"
-        if not (args.reuse and rp.exists()):
-            t0 = time.monotonic()
-            extra = ["--detailed-timing-report"] if args.late else []
-            build(BuildConfig(**kw, extra_nextpnr=extra), out, quiet=True)
-            what += f" (built in {time.monotonic() - t0:.0f} s)"
-        rep = json.loads(rp.read_text())
-        print(row(label, what, rep), flush=True)
-        if args.late:
-            print_late(out, rep, args.late)
+        met = []
+        for seed in args.seeds:
+            out = ROOT / label / f"seed{seed}"
+            rp = out / "report.json"
+            note = what
+            if not (args.reuse and rp.exists()):
+                t0 = time.monotonic()
+                extra = ["--detailed-timing-report"] if args.late else []
+                build(BuildConfig(**kw, seed=seed, extra_nextpnr=extra), out, quiet=True)
+                note += f" (built in {time.monotonic() - t0:.0f} s)"
+            rep = json.loads(rp.read_text())
+            met.append(rep["timing"]["met"])
+            print(row(label, note, rep), flush=True)
+            if args.late:
+                print_late(out, rep, args.late)
+        if len(args.seeds) > 1:
+            print(f"{'':<12} {label}: timing met at {sum(met)} of {len(met)} seeds", flush=True)
     seed_capacity()
 
 
