@@ -478,10 +478,6 @@ class RegisterFile(wiring.Component):
             return (CHANNEL_BASE + CHANNEL_STRIDE * min(members),
                     CHANNEL_BASE + CHANNEL_STRIDE * (max(members) + 1) - 1)
 
-        def ram_register(op, members, offset):
-            """The access ``op`` is to the register at ``offset`` of one of ``members``."""
-            return _within(op.addr, *ram_range(members)) & (op.addr[:stride_bits] == offset)
-
         ram_reads = []         # per group: field name -> (fn(slot) -> the RAM's word, fresh bits, reset values)
         unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
         for g, members in enumerate(self._groups):
@@ -493,7 +489,7 @@ class RegisterFile(wiring.Component):
                                  D, "pre_slot_onehot", g)
             w_slot = landing(Mux(in_group, pre_slot, 0), slot_bits, f"ram_slot_g{g}", data=True)
             w_onehot_in = Mux(in_group, pre_onehot, 0)      # the landing slot, one-hot, a clock ahead
-            reads, fresh_of = {}, {}
+            reads, fresh_of, fresh_ahead_of = {}, {}, {}
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
                 width = rmap.reg(reg_name, 0).field(field_name).width
@@ -516,6 +512,7 @@ class RegisterFile(wiring.Component):
                 m.d.sync += [fresh_ahead.eq(fresh_ahead & ~Mux(w_en_in, w_onehot_in, 0)),
                              fresh.eq(fresh_ahead)]
                 fresh_of[name] = fresh
+                fresh_ahead_of[name] = fresh_ahead
                 reset_of = Array(Const(v, width) for v in resets)
 
                 def raw_read(slot, mem=mem):
@@ -541,7 +538,11 @@ class RegisterFile(wiring.Component):
                                  reset_value.eq(reset_of[r_ahead]),
                                  self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
             ram_reads.append(reads)
-            unstated.append(fresh_of["base"] | fresh_of["length"] | fresh_of["crc"])
+            # the OR of the three fresh bits, a register of its own (from
+            # the bits a clock ahead: the same value as the fresh bits' OR)
+            u = Signal(D, init=(1 << len(members)) - 1, name=f"unstated_g{g}")
+            m.d.sync += u.eq(fresh_ahead_of["base"] | fresh_ahead_of["length"] | fresh_ahead_of["crc"])
+            unstated.append(u)
 
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
         stages = MATCH_STAGES
@@ -561,18 +562,35 @@ class RegisterFile(wiring.Component):
         group_match = []
         for g, members in enumerate(self._groups):
             m_slot = Signal(slot_bits, name=f"match_slot_g{g}")
-            m_hit = Signal(name=f"match_hit_g{g}")
             src = at(g, wd - stages - 1)
-            m.d.sync += [m_slot.eq(slot_at(src)), m_hit.eq(ram_register(src, members, ctrl_offset))]
+            m.d.sync += m_slot.eq(slot_at(src))
+            # the access is to a CTRL of the group: the range compare's and
+            # the offset's parts registered, their AND registered next (the
+            # compares in one clock were among the 64-channel build's late
+            # paths, 5.3 ns)
+            at_ctrl = Signal(name=f"match_ctrl_offset_g{g}")
+            m.d.sync += at_ctrl.eq(src.addr[:stride_bits] == ctrl_offset)
+            m_hit = at_ctrl & _registered_address_match(m, src.addr, [ram_range(members)], f"match_hit_g{g}")
             # each field's RAMs read at a copy of the slot of their own (kept:
             # one register for the 18 LUT RAMs was 3.6-4.4 ns of routing into
             # them, the latest path of two- and four-pipeline builds)
             raw = {name: ram_reads[g][name][0](kept_register(m, platform, slot_at(src), f"match_slot_{name}_g{g}"))
                    for name in ("base", "length", "crc")}
-            m_hit = m_hit & ~unstated[g].bit_select(m_slot, 1)
+            # the slot's unstated bit in two registered levels: in each half
+            # of the slots (by the slot's top bit) the bit the rest selects,
+            # then, with the hit, the top bit's choice (the OR of the fresh
+            # bits and a 10:1 selection of it into the hit, in one clock,
+            # was a latest path of the 64-channel build, 5.8 ns)
+            top = slot_bits - 1
+            half = 1 << top
+            halves = (unstated[g][:half], Cat(unstated[g][half:], Const(0, 2 * half - D)))
+            lo, hi = (landing(bits.bit_select(m_slot[:top], 1) if top else bits[0], 1,
+                              f"match_unstated_{tag}_g{g}")
+                      for tag, bits in zip(("lo", "hi"), halves))
+            in_hi = landing(m_slot[top], 1, f"match_slot_top_g{g}")
             raw = {name: landing(word, len(word), f"match_{name}_g{g}", data=True)
                    for name, word in raw.items()}
-            m_hit = landing(m_hit, 1, f"match_hit_r_g{g}")
+            m_hit = landing(m_hit, 1, f"match_hit_r_g{g}") & ~Mux(in_hi, hi, lo)
             # the run in registers of the group's own (kept), a clock before
             # the comparison: the run's one place into every group's
             # comparisons was a latest path at 64 channels (6.1-6.5 ns). The
@@ -712,7 +730,11 @@ class RegisterFile(wiring.Component):
             # the access is to the group's channel registers, a clock before
             # each field's hit (the range compare and the offset's in one
             # clock were among the 64-channel build's late paths, 6.2 ns)
-            in_ram = decoded(lambda op, members=members: _within(op.addr, *ram_range(members)), 1, "rd_in_ram", g)
+            # (from parts registered a clock before that: the 16-bit range
+            # compare in one clock was among its late paths, 5.1 ns)
+            in_ram = Signal(name=f"rd_in_ram_{_unit_tag(g)}")
+            m.d.sync += in_ram.eq(_registered_address_match(
+                m, at(g, wd - 3).addr, [ram_range(members)], f"rd_in_ram_{_unit_tag(g)}"))
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 f = rmap.reg(reg_name, 0).field(field_name)
                 if f.access == "rw":
