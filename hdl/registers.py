@@ -529,12 +529,18 @@ class RegisterFile(wiring.Component):
                     # one pair for the group's four fields, into their RAMs'
                     # reads and the use-reset selections, was the 64-channel
                     # build's latest path, 5.8 ns, 4.4 of it routing)
+                    # (the fresh bit's selection by a slot counter of its
+                    # own: the one counter also into the reset value's
+                    # lookup was the 64-channel build's latest path at seed
+                    # 2, 5.3 ns, 3.9 of it routing)
                     r_slot = Signal(range(D), init=S - 1, name=f"ram_{name}_rslot_g{g}")
-                    r_ahead = Signal(range(D), init=0, name=f"ram_{name}_rslot_ahead_g{g}")
-                    m.d.sync += [r_slot.eq(r_ahead), r_ahead.eq(Mux(r_ahead == S - 1, 0, r_ahead + 1))]
+                    r_ahead, f_ahead = (Signal(range(D), init=0, name=f"ram_{name}_{what}_ahead_g{g}")
+                                        for what in ("rslot", "fslot"))
+                    m.d.sync += [r_slot.eq(r_ahead)]
+                    m.d.sync += [ctr.eq(Mux(ctr == S - 1, 0, ctr + 1)) for ctr in (r_ahead, f_ahead)]
                     use_reset = Signal(init=len(members) == S, name=f"ram_{name}_use_reset_g{g}")
                     reset_value = Signal(width, init=resets[S - 1], name=f"ram_{name}_reset_g{g}")
-                    m.d.sync += [use_reset.eq(fresh_ahead.bit_select(r_ahead, 1)),
+                    m.d.sync += [use_reset.eq(fresh_ahead.bit_select(f_ahead, 1)),
                                  reset_value.eq(reset_of[r_ahead]),
                                  self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
             ram_reads.append(reads)
@@ -726,7 +732,11 @@ class RegisterFile(wiring.Component):
         early = 2
         ram_words = []
         for g, members in enumerate(self._groups):
-            rd_slot_of = slot_at(at(g, wd - 1 - early))
+            # (the slot looked up a clock before the copies, in a register
+            # of its own: the lookup from the address into the 15 copies
+            # was the 64-channel build's latest path at seed 1, 5.7 ns)
+            rd_slot_of = Signal(slot_bits, name=f"rd_slot_g{g}")
+            m.d.sync += rd_slot_of.eq(slot_at(at(g, wd - 2 - early)))
             # the access is to the group's channel registers, a clock before
             # each field's hit (the range compare and the offset's in one
             # clock were among the 64-channel build's late paths, 6.2 ns)
