@@ -186,6 +186,8 @@ class RegisterFile(wiring.Component):
         groups = [list(range(N))] if groups is None else [list(g) for g in groups]
         if sorted(ch for g in groups for ch in g) != list(range(N)):
             raise ValueError(f"Groups must hold every channel 0..{N - 1} once, not {groups!r}")
+        if any(g != list(range(g[0], g[0] + len(g))) for g in groups):
+            raise ValueError(f"Groups must each be a run of consecutive channels in order, not {groups!r}")
         self._groups = groups
         longest = max(len(g) for g in groups)
         slots = longest if slots is None else slots
@@ -465,13 +467,16 @@ class RegisterFile(wiring.Component):
         D = max(2, S)            # the RAMs' depth: no zero-width address at one slot
         slot_bits = (D - 1).bit_length()
         stride_bits = CHANNEL_STRIDE.bit_length() - 1
-        slot_of = [0] * (1 << (len(bus.addr) - stride_bits))      # by address >> stride_bits
-        for members in self._groups:
-            for s, ch in enumerate(members):
-                slot_of[(CHANNEL_BASE + CHANNEL_STRIDE * ch) >> stride_bits] = s
 
-        def slot_at(op):
-            return Array(Const(s, slot_bits) for s in slot_of)[op.addr[stride_bits:]]
+        def slot_at(op, g):
+            """The slot of group g's channel whose registers ``op`` addresses
+            (whatever, if none of them): the channel's index less the
+            group's first, modulo the slots' span, so from as many bits of
+            the address (a LUT per bit; a lookup by the whole address, its
+            range compares in it, into the copies of the slot was the
+            64-channel build's latest path, 5.8 ns)."""
+            first = (CHANNEL_BASE + CHANNEL_STRIDE * self._groups[g][0]) >> stride_bits
+            return (op.addr[stride_bits:stride_bits + slot_bits] - (first % (1 << slot_bits)))[:slot_bits]
 
         def ram_range(members):
             """The addresses of the channel registers of ``members``."""
@@ -484,8 +489,8 @@ class RegisterFile(wiring.Component):
             # the group's landing decode: APPLY is in it too, but its offset
             # is no RAM field's, so it writes none
             in_group = group_hit[g]
-            pre_slot = decoded(slot_at, slot_bits, "pre_slot", g)
-            pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
+            pre_slot = decoded(lambda op, g=g: slot_at(op, g), slot_bits, "pre_slot", g)
+            pre_onehot = decoded(lambda op, g=g: Cat(slot_at(op, g) == s for s in range(D)),
                                  D, "pre_slot_onehot", g)
             w_slot = landing(Mux(in_group, pre_slot, 0), slot_bits, f"ram_slot_g{g}", data=True)
             w_onehot_in = Mux(in_group, pre_onehot, 0)      # the landing slot, one-hot, a clock ahead
@@ -569,7 +574,7 @@ class RegisterFile(wiring.Component):
         for g, members in enumerate(self._groups):
             m_slot = Signal(slot_bits, name=f"match_slot_g{g}")
             src = at(g, wd - stages - 1)
-            m.d.sync += m_slot.eq(slot_at(src))
+            m.d.sync += m_slot.eq(slot_at(src, g))
             # the access is to a CTRL of the group: the range compare's and
             # the offset's parts registered, their AND registered next (the
             # compares in one clock were among the 64-channel build's late
@@ -580,7 +585,7 @@ class RegisterFile(wiring.Component):
             # each field's RAMs read at a copy of the slot of their own (kept:
             # one register for the 18 LUT RAMs was 3.6-4.4 ns of routing into
             # them, the latest path of two- and four-pipeline builds)
-            raw = {name: ram_reads[g][name][0](kept_register(m, platform, slot_at(src), f"match_slot_{name}_g{g}"))
+            raw = {name: ram_reads[g][name][0](kept_register(m, platform, slot_at(src, g), f"match_slot_{name}_g{g}"))
                    for name in ("base", "length", "crc")}
             # the slot's unstated bit in two registered levels: in each half
             # of the slots (by the slot's top bit) the bit the rest selects,
@@ -736,7 +741,7 @@ class RegisterFile(wiring.Component):
             # of its own: the lookup from the address into the 15 copies
             # was the 64-channel build's latest path at seed 1, 5.7 ns)
             rd_slot_of = Signal(slot_bits, name=f"rd_slot_g{g}")
-            m.d.sync += rd_slot_of.eq(slot_at(at(g, wd - 2 - early)))
+            m.d.sync += rd_slot_of.eq(slot_at(at(g, wd - 2 - early), g))
             # the access is to the group's channel registers, a clock before
             # each field's hit (the range compare and the offset's in one
             # clock were among the 64-channel build's late paths, 6.2 ns)

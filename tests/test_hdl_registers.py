@@ -96,3 +96,11 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
     sim.add_clock(1e-8)
     sim.add_testbench(bench)
     sim.run()
+
+
+def test_groups_that_are_not_runs_of_consecutive_channels_are_refused():
+    c = ReplayContract(channels=4, slots=2, pool_words=64, max_delay=5, max_tap=2, interpolation="hold")
+    rmap = register_map(c, [ChannelInit(words=(1,)) for _ in range(4)])
+    for groups in ([[0, 2], [1, 3]], [[1, 0], [2, 3]]):
+        with pytest.raises(ValueError, match="consecutive channels"):
+            RegisterFile(rmap, groups=groups, slots=2)
