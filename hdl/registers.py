@@ -534,18 +534,26 @@ class RegisterFile(wiring.Component):
                     # one pair for the group's four fields, into their RAMs'
                     # reads and the use-reset selections, was the 64-channel
                     # build's latest path, 5.8 ns, 4.4 of it routing)
-                    # (the fresh bit's selection by a slot counter of its
-                    # own: the one counter also into the reset value's
-                    # lookup was the 64-channel build's latest path at seed
-                    # 2, 5.3 ns, 3.9 of it routing)
+                    # The fresh bit a clock before that again, beside the
+                    # fresh bits, by a slot counter of its own, and whether
+                    # the write landing then clears it; use_reset is their
+                    # AND (the selection into use_reset, from the slot
+                    # counter that also looked up the reset value, was the
+                    # 64-channel build's latest path at seed 2, 5.3 ns, 3.9
+                    # of it routing; by a counter of its own, three of the
+                    # next build's late endpoints, 5.0-5.2 ns).
                     r_slot = Signal(range(D), init=S - 1, name=f"ram_{name}_rslot_g{g}")
-                    r_ahead, f_ahead = (Signal(range(D), init=0, name=f"ram_{name}_{what}_ahead_g{g}")
-                                        for what in ("rslot", "fslot"))
+                    r_ahead = Signal(range(D), init=0, name=f"ram_{name}_rslot_ahead_g{g}")
+                    f_next = Signal(range(D), init=1 % S, name=f"ram_{name}_fslot_next_g{g}")
                     m.d.sync += [r_slot.eq(r_ahead)]
-                    m.d.sync += [ctr.eq(Mux(ctr == S - 1, 0, ctr + 1)) for ctr in (r_ahead, f_ahead)]
+                    m.d.sync += [ctr.eq(Mux(ctr == S - 1, 0, ctr + 1)) for ctr in (r_ahead, f_next)]
+                    fresh_read = Signal(init=1, name=f"ram_{name}_fresh_read_g{g}")
+                    cleared = Signal(name=f"ram_{name}_fresh_cleared_g{g}")
+                    m.d.sync += [fresh_read.eq(fresh_ahead.bit_select(f_next, 1)),
+                                 cleared.eq(w_en_in & (pre_slot == f_next))]
                     use_reset = Signal(init=len(members) == S, name=f"ram_{name}_use_reset_g{g}")
                     reset_value = Signal(width, init=resets[S - 1], name=f"ram_{name}_reset_g{g}")
-                    m.d.sync += [use_reset.eq(fresh_ahead.bit_select(f_ahead, 1)),
+                    m.d.sync += [use_reset.eq(fresh_read & ~cleared),
                                  reset_value.eq(reset_of[r_ahead]),
                                  self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
             ram_reads.append(reads)
