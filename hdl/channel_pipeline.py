@@ -87,6 +87,24 @@ ACC_LOW_BITS = 19
 RAM_DELAY_MIN = 3
 
 
+def _registered_at_least(m, x, k, name):
+    """Signed ``x >= k`` for a constant ``k`` in x's range, a clock late:
+    the upper and lower halves' compares registered (offset binary: the
+    sign bit inverted, ``k`` moved by the same), then their combination."""
+    n = len(x)
+    assert -(1 << (n - 1)) <= k < 1 << (n - 1)
+    xu, ku = Cat(x[:-1], ~x[-1]), k + (1 << (n - 1))
+    h = n // 2
+    top, k_top, k_low = xu[h:], ku >> h, ku & ((1 << h) - 1)
+    parts = {}
+    for what, value in (("top_gt", top > k_top if k_top < (1 << (n - h)) - 1 else Const(0)),
+                        ("top_eq", top == k_top),
+                        ("low_ge", xu[:h] >= k_low if k_low else Const(1))):
+        parts[what] = Signal(name=f"{name}_{what}", reset_less=True)
+        m.d.sync += parts[what].eq(value)
+    return parts["top_gt"] | (parts["top_eq"] & parts["low_ge"])
+
+
 def _ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None):
     """``sig`` delayed by ``n`` clocks, as a chain of ``n`` registers whose
     power-up values are ``inits`` (the first register's first) would delay it.
@@ -1132,6 +1150,8 @@ class ChannelPipeline(wiring.Component):
         put0 = Signal(3, name="mac_put0")
         m.d.sync += put0.eq(Cat(*[fhigh.valid & fhigh.last & (fhigh.dest == k) for k in range(3)]))
         res = Signal(IQ(W), name="mac_res", reset_less=True)
+        pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
+        spare = min(pad, 1)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
             m.submodules[f"fir_mul_{part}"] = mul
@@ -1184,18 +1204,27 @@ class ChannelPipeline(wiring.Component):
             # beside it, then 2 a_hi + (a_lo >= k_lo) >= 2 k_hi + 1, which is
             # a >= k, on the upper half's width (the whole accumulator's
             # compare was among a 16-channel build's late paths, 4.8-4.9 ns).
+            # Where the merge leaves the result a clock to spare (M >= 2), the
+            # upper compare in two parts a clock later still, its halves
+            # registered (the upper compare's carry chain from the lower
+            # half's flag was among the 64-channel build's late paths,
+            # 5.0-5.2 ns), the rounded value delayed beside them.
             over = Signal(name=f"fir_over_{part}", reset_less=True)
             under = Signal(name=f"fir_under_{part}", reset_less=True)
             for flag, bound, below in ((over, ((hi + 1) << FIR_COEF_FRAC) - half, False),
                                        (under, (lo << FIR_COEF_FRAC) - half, True)):
                 lo_ge = Signal(name=f"{flag.name}_lo", reset_less=True)
                 m.d.sync += lo_ge.eq(acc_lo >= (bound & ((1 << ACC_LOW_BITS) - 1)))
-                ge = Cat(lo_ge, acc_hi).as_signed() >= 2 * (bound >> ACC_LOW_BITS) + 1
+                x, k = Cat(lo_ge, acc_hi), 2 * (bound >> ACC_LOW_BITS) + 1
+                if spare:
+                    ge = _registered_at_least(m, x, k, flag.name)
+                else:
+                    ge = x.as_signed() >= k
                 m.d.sync += flag.eq(~ge if below else ge)
+            rounded = _delay(m, rounded, spare, f"fir_rnd_d_{part}", data=True)
             m.d.sync += getattr(res, part).eq(Mux(over, hi, Mux(under, lo, rounded)))
         # addresses, ROM levels (the word beside), multiplier in and out, its
         # output again, product, the accumulator's two halves, round, saturate
         assert 1 + 3 + 2 + 1 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
-        pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
-        res_d = _delay(m, res, pad, "mac_res", data=True)
+        res_d = _delay(m, res, pad - spare, "mac_res", data=True)
         m.d.comb += [mac_put.eq(_delay(m, put0, 2 + pad, "mac_put")), mac_val.eq(res_d)]
