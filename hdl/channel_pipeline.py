@@ -87,24 +87,6 @@ ACC_LOW_BITS = 19
 RAM_DELAY_MIN = 3
 
 
-def _registered_at_least(m, x, k, name):
-    """Signed ``x >= k`` for a constant ``k`` in x's range, a clock late:
-    the upper and lower halves' compares registered (offset binary: the
-    sign bit inverted, ``k`` moved by the same), then their combination."""
-    n = len(x)
-    assert -(1 << (n - 1)) <= k < 1 << (n - 1)
-    xu, ku = Cat(x[:-1], ~x[-1]), k + (1 << (n - 1))
-    h = n // 2
-    top, k_top, k_low = xu[h:], ku >> h, ku & ((1 << h) - 1)
-    parts = {}
-    for what, value in (("top_gt", top > k_top if k_top < (1 << (n - h)) - 1 else Const(0)),
-                        ("top_eq", top == k_top),
-                        ("low_ge", xu[:h] >= k_low if k_low else Const(1))):
-        parts[what] = Signal(name=f"{name}_{what}", reset_less=True)
-        m.d.sync += parts[what].eq(value)
-    return parts["top_gt"] | (parts["top_eq"] & parts["low_ge"])
-
-
 def _ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None):
     """``sig`` delayed by ``n`` clocks, as a chain of ``n`` registers whose
     power-up values are ``inits`` (the first register's first) would delay it.
@@ -683,14 +665,8 @@ class ChannelPipeline(wiring.Component):
                                              Mux(x.grant, x.room_up, x.room_dn))),
                              nxt.cpos.eq(Mux(x.release, x.cpos1, x.cpos))]
             if fir:
-                # the U values' shift, each value's from a copy of the J step
-                # of its own (kept): mid's jstep into the 64 bits was the
-                # 64-channel build's latest path at seed 1 (5.33 ns, 3.78 of
-                # it one route)
-                for k in (0, 1):
-                    shift = x.jstep if M == 1 else kept_register(m, platform, a["jstep"], f"u{k}_shift", reset=True)
-                    with m.If(shift):
-                        m.d.comb += getattr(nxt, f"u{k}").eq(getattr(x, f"u{k + 1}"))
+                with m.If(x.jstep):
+                    m.d.comb += [nxt.u0.eq(x.u1), nxt.u1.eq(x.u2)]
         # The fetcher's index, address and position, each field selected by a
         # copy of its own of the selects (kept): one register of each select
         # for all ~50 bits sat far from most of them (the fetch address was
@@ -1150,8 +1126,6 @@ class ChannelPipeline(wiring.Component):
         put0 = Signal(3, name="mac_put0")
         m.d.sync += put0.eq(Cat(*[fhigh.valid & fhigh.last & (fhigh.dest == k) for k in range(3)]))
         res = Signal(IQ(W), name="mac_res", reset_less=True)
-        pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
-        spare = min(pad, 1)
         for part in ("re", "im"):
             mul = RegisteredMultiplier(W, FIR_COEF_WIDTH, input_reg=True)
             m.submodules[f"fir_mul_{part}"] = mul
@@ -1204,27 +1178,18 @@ class ChannelPipeline(wiring.Component):
             # beside it, then 2 a_hi + (a_lo >= k_lo) >= 2 k_hi + 1, which is
             # a >= k, on the upper half's width (the whole accumulator's
             # compare was among a 16-channel build's late paths, 4.8-4.9 ns).
-            # Where the merge leaves the result a clock to spare (M >= 2), the
-            # upper compare in two parts a clock later still, its halves
-            # registered (the upper compare's carry chain from the lower
-            # half's flag was among the 64-channel build's late paths,
-            # 5.0-5.2 ns), the rounded value delayed beside them.
             over = Signal(name=f"fir_over_{part}", reset_less=True)
             under = Signal(name=f"fir_under_{part}", reset_less=True)
             for flag, bound, below in ((over, ((hi + 1) << FIR_COEF_FRAC) - half, False),
                                        (under, (lo << FIR_COEF_FRAC) - half, True)):
                 lo_ge = Signal(name=f"{flag.name}_lo", reset_less=True)
                 m.d.sync += lo_ge.eq(acc_lo >= (bound & ((1 << ACC_LOW_BITS) - 1)))
-                x, k = Cat(lo_ge, acc_hi), 2 * (bound >> ACC_LOW_BITS) + 1
-                if spare:
-                    ge = _registered_at_least(m, x, k, flag.name)
-                else:
-                    ge = x.as_signed() >= k
+                ge = Cat(lo_ge, acc_hi).as_signed() >= 2 * (bound >> ACC_LOW_BITS) + 1
                 m.d.sync += flag.eq(~ge if below else ge)
-            rounded = _delay(m, rounded, spare, f"fir_rnd_d_{part}", data=True)
             m.d.sync += getattr(res, part).eq(Mux(over, hi, Mux(under, lo, rounded)))
         # addresses, ROM levels (the word beside), multiplier in and out, its
         # output again, product, the accumulator's two halves, round, saturate
         assert 1 + 3 + 2 + 1 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
-        res_d = _delay(m, res, pad - spare, "mac_res", data=True)
+        pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
+        res_d = _delay(m, res, pad, "mac_res", data=True)
         m.d.comb += [mac_put.eq(_delay(m, put0, 2 + pad, "mac_put")), mac_val.eq(res_d)]

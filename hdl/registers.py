@@ -187,6 +187,7 @@ class RegisterFile(wiring.Component):
         if sorted(ch for g in groups for ch in g) != list(range(N)):
             raise ValueError(f"Groups must hold every channel 0..{N - 1} once, not {groups!r}")
         if any(g != list(range(g[0], g[0] + len(g))) for g in groups):
+            # (a group's RAM range, ram_range below, is from its first channel to its last)
             raise ValueError(f"Groups must each be a run of consecutive channels in order, not {groups!r}")
         self._groups = groups
         longest = max(len(g) for g in groups)
@@ -467,21 +468,22 @@ class RegisterFile(wiring.Component):
         D = max(2, S)            # the RAMs' depth: no zero-width address at one slot
         slot_bits = (D - 1).bit_length()
         stride_bits = CHANNEL_STRIDE.bit_length() - 1
+        slot_of = [0] * (1 << (len(bus.addr) - stride_bits))      # by address >> stride_bits
+        for members in self._groups:
+            for s, ch in enumerate(members):
+                slot_of[(CHANNEL_BASE + CHANNEL_STRIDE * ch) >> stride_bits] = s
 
-        def slot_at(op, g):
-            """The slot of group g's channel whose registers ``op`` addresses
-            (whatever, if none of them): the channel's index less the
-            group's first, modulo the slots' span, so from as many bits of
-            the address (a LUT per bit; a lookup by the whole address, its
-            range compares in it, into the copies of the slot was the
-            64-channel build's latest path, 5.8 ns)."""
-            first = (CHANNEL_BASE + CHANNEL_STRIDE * self._groups[g][0]) >> stride_bits
-            return (op.addr[stride_bits:stride_bits + slot_bits] - (first % (1 << slot_bits)))[:slot_bits]
+        def slot_at(op):
+            return Array(Const(s, slot_bits) for s in slot_of)[op.addr[stride_bits:]]
 
         def ram_range(members):
             """The addresses of the channel registers of ``members``."""
             return (CHANNEL_BASE + CHANNEL_STRIDE * min(members),
                     CHANNEL_BASE + CHANNEL_STRIDE * (max(members) + 1) - 1)
+
+        def ram_register(op, members, offset):
+            """The access ``op`` is to the register at ``offset`` of one of ``members``."""
+            return _within(op.addr, *ram_range(members)) & (op.addr[:stride_bits] == offset)
 
         ram_reads = []         # per group: field name -> (fn(slot) -> the RAM's word, fresh bits, reset values)
         unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
@@ -489,12 +491,12 @@ class RegisterFile(wiring.Component):
             # the group's landing decode: APPLY is in it too, but its offset
             # is no RAM field's, so it writes none
             in_group = group_hit[g]
-            pre_slot = decoded(lambda op, g=g: slot_at(op, g), slot_bits, "pre_slot", g)
-            pre_onehot = decoded(lambda op, g=g: Cat(slot_at(op, g) == s for s in range(D)),
+            pre_slot = decoded(slot_at, slot_bits, "pre_slot", g)
+            pre_onehot = decoded(lambda op: Array(Const(1 << s, D) for s in slot_of)[op.addr[stride_bits:]],
                                  D, "pre_slot_onehot", g)
             w_slot = landing(Mux(in_group, pre_slot, 0), slot_bits, f"ram_slot_g{g}", data=True)
             w_onehot_in = Mux(in_group, pre_onehot, 0)      # the landing slot, one-hot, a clock ahead
-            reads, fresh_of, fresh_ahead_of = {}, {}, {}
+            reads, fresh_of = {}, {}
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
                 width = rmap.reg(reg_name, 0).field(field_name).width
@@ -517,7 +519,6 @@ class RegisterFile(wiring.Component):
                 m.d.sync += [fresh_ahead.eq(fresh_ahead & ~Mux(w_en_in, w_onehot_in, 0)),
                              fresh.eq(fresh_ahead)]
                 fresh_of[name] = fresh
-                fresh_ahead_of[name] = fresh_ahead
                 reset_of = Array(Const(v, width) for v in resets)
 
                 def raw_read(slot, mem=mem):
@@ -534,34 +535,16 @@ class RegisterFile(wiring.Component):
                     # one pair for the group's four fields, into their RAMs'
                     # reads and the use-reset selections, was the 64-channel
                     # build's latest path, 5.8 ns, 4.4 of it routing)
-                    # The fresh bit a clock before that again, beside the
-                    # fresh bits, by a slot counter of its own, and whether
-                    # the write landing then clears it; use_reset is their
-                    # AND (the selection into use_reset, from the slot
-                    # counter that also looked up the reset value, was the
-                    # 64-channel build's latest path at seed 2, 5.3 ns, 3.9
-                    # of it routing; by a counter of its own, three of the
-                    # next build's late endpoints, 5.0-5.2 ns).
                     r_slot = Signal(range(D), init=S - 1, name=f"ram_{name}_rslot_g{g}")
                     r_ahead = Signal(range(D), init=0, name=f"ram_{name}_rslot_ahead_g{g}")
-                    f_next = Signal(range(D), init=1 % S, name=f"ram_{name}_fslot_next_g{g}")
-                    m.d.sync += [r_slot.eq(r_ahead)]
-                    m.d.sync += [ctr.eq(Mux(ctr == S - 1, 0, ctr + 1)) for ctr in (r_ahead, f_next)]
-                    fresh_read = Signal(init=1, name=f"ram_{name}_fresh_read_g{g}")
-                    cleared = Signal(name=f"ram_{name}_fresh_cleared_g{g}")
-                    m.d.sync += [fresh_read.eq(fresh_ahead.bit_select(f_next, 1)),
-                                 cleared.eq(w_en_in & (pre_slot == f_next))]
+                    m.d.sync += [r_slot.eq(r_ahead), r_ahead.eq(Mux(r_ahead == S - 1, 0, r_ahead + 1))]
                     use_reset = Signal(init=len(members) == S, name=f"ram_{name}_use_reset_g{g}")
                     reset_value = Signal(width, init=resets[S - 1], name=f"ram_{name}_reset_g{g}")
-                    m.d.sync += [use_reset.eq(fresh_read & ~cleared),
+                    m.d.sync += [use_reset.eq(fresh_ahead.bit_select(r_ahead, 1)),
                                  reset_value.eq(reset_of[r_ahead]),
                                  self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
             ram_reads.append(reads)
-            # the OR of the three fresh bits, a register of its own (from
-            # the bits a clock ahead: the same value as the fresh bits' OR)
-            u = Signal(D, init=(1 << len(members)) - 1, name=f"unstated_g{g}")
-            m.d.sync += u.eq(fresh_ahead_of["base"] | fresh_ahead_of["length"] | fresh_ahead_of["crc"])
-            unstated.append(u)
+            unstated.append(fresh_of["base"] | fresh_of["length"] | fresh_of["crc"])
 
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
         stages = MATCH_STAGES
@@ -581,35 +564,18 @@ class RegisterFile(wiring.Component):
         group_match = []
         for g, members in enumerate(self._groups):
             m_slot = Signal(slot_bits, name=f"match_slot_g{g}")
+            m_hit = Signal(name=f"match_hit_g{g}")
             src = at(g, wd - stages - 1)
-            m.d.sync += m_slot.eq(slot_at(src, g))
-            # the access is to a CTRL of the group: the range compare's and
-            # the offset's parts registered, their AND registered next (the
-            # compares in one clock were among the 64-channel build's late
-            # paths, 5.3 ns)
-            at_ctrl = Signal(name=f"match_ctrl_offset_g{g}")
-            m.d.sync += at_ctrl.eq(src.addr[:stride_bits] == ctrl_offset)
-            m_hit = at_ctrl & _registered_address_match(m, src.addr, [ram_range(members)], f"match_hit_g{g}")
+            m.d.sync += [m_slot.eq(slot_at(src)), m_hit.eq(ram_register(src, members, ctrl_offset))]
             # each field's RAMs read at a copy of the slot of their own (kept:
             # one register for the 18 LUT RAMs was 3.6-4.4 ns of routing into
             # them, the latest path of two- and four-pipeline builds)
-            raw = {name: ram_reads[g][name][0](kept_register(m, platform, slot_at(src, g), f"match_slot_{name}_g{g}"))
+            raw = {name: ram_reads[g][name][0](kept_register(m, platform, slot_at(src), f"match_slot_{name}_g{g}"))
                    for name in ("base", "length", "crc")}
-            # the slot's unstated bit in two registered levels: in each half
-            # of the slots (by the slot's top bit) the bit the rest selects,
-            # then, with the hit, the top bit's choice (the OR of the fresh
-            # bits and a 10:1 selection of it into the hit, in one clock,
-            # was a latest path of the 64-channel build, 5.8 ns)
-            top = slot_bits - 1
-            half = 1 << top
-            halves = (unstated[g][:half], Cat(unstated[g][half:], Const(0, 2 * half - D)))
-            lo, hi = (landing(bits.bit_select(m_slot[:top], 1) if top else bits[0], 1,
-                              f"match_unstated_{tag}_g{g}")
-                      for tag, bits in zip(("lo", "hi"), halves))
-            in_hi = landing(m_slot[top], 1, f"match_slot_top_g{g}")
+            m_hit = m_hit & ~unstated[g].bit_select(m_slot, 1)
             raw = {name: landing(word, len(word), f"match_{name}_g{g}", data=True)
                    for name, word in raw.items()}
-            m_hit = landing(m_hit, 1, f"match_hit_r_g{g}") & ~Mux(in_hi, hi, lo)
+            m_hit = landing(m_hit, 1, f"match_hit_r_g{g}")
             # the run in registers of the group's own (kept), a clock before
             # the comparison: the run's one place into every group's
             # comparisons was a latest path at 64 channels (6.1-6.5 ns). The
@@ -745,19 +711,11 @@ class RegisterFile(wiring.Component):
         early = 2
         ram_words = []
         for g, members in enumerate(self._groups):
-            # (the slot looked up a clock before the copies, in a register
-            # of its own: the lookup from the address into the 15 copies
-            # was the 64-channel build's latest path at seed 1, 5.7 ns)
-            rd_slot_of = Signal(slot_bits, name=f"rd_slot_g{g}")
-            m.d.sync += rd_slot_of.eq(slot_at(at(g, wd - 2 - early), g))
+            rd_slot_of = slot_at(at(g, wd - 1 - early))
             # the access is to the group's channel registers, a clock before
             # each field's hit (the range compare and the offset's in one
             # clock were among the 64-channel build's late paths, 6.2 ns)
-            # (from parts registered a clock before that: the 16-bit range
-            # compare in one clock was among its late paths, 5.1 ns)
-            in_ram = Signal(name=f"rd_in_ram_{_unit_tag(g)}")
-            m.d.sync += in_ram.eq(_registered_address_match(
-                m, at(g, wd - 3).addr, [ram_range(members)], f"rd_in_ram_{_unit_tag(g)}"))
+            in_ram = decoded(lambda op, members=members: _within(op.addr, *ram_range(members)), 1, "rd_in_ram", g)
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 f = rmap.reg(reg_name, 0).field(field_name)
                 if f.access == "rw":
@@ -893,24 +851,22 @@ def _registered_address_match(m, addr, ranges, name):
     """Whether ``addr`` lies in one of ``ranges`` (inclusive ``(lo, hi)``
     pairs), from parts registered a clock before: per range, the bits above
     the highest bit in which lo and hi differ compared with theirs, and the
-    bits from that one down with each bound of the range, in registers of
-    their own (a group's range at 10 slots is ten bits wide there; both
-    compares into one register were among the 64-channel build's late
-    paths, 5.0-5.1 ns). Left after the registers: an AND per range and
-    their OR."""
+    bits from that one down with the range (the group's registers are an
+    aligned block: its low bits' compare is with a constant range of four
+    bits at two slots per group). Left after the registers: an AND per
+    range and their OR."""
     terms = []
     for k, (lo, hi) in enumerate(ranges):
         split = (lo ^ hi).bit_length()
         top = Signal(name=f"{name}_top{k}")
         m.d.sync += top.eq(addr[split:] == lo >> split if split < len(addr) else 1)
         mask = (1 << split) - 1
-        parts = [top]
-        for bound, (b_lo, b_hi) in (("ge", (lo & mask, mask)), ("le", (0, hi & mask))):
-            if split and (b_lo, b_hi) != (0, mask):
-                part = Signal(name=f"{name}_{bound}{k}")
-                m.d.sync += part.eq(_within(addr[:split], b_lo, b_hi))
-                parts.append(part)
-        terms.append(Cat(*parts).all())
+        if split:
+            low = Signal(name=f"{name}_low{k}")
+            m.d.sync += low.eq(_within(addr[:split], lo & mask, hi & mask))
+            terms.append(top & low)
+        else:
+            terms.append(top)
     return Cat(*terms).any()
 
 
