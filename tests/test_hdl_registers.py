@@ -130,7 +130,7 @@ def test_the_ram_view_shows_a_write_from_the_same_clock_on_at_every_phase_of_its
     reset_of = {(ch, name): rmap.reg(reg, ch).field(field).reset
                 for ch in range(channels) for name, (reg, field) in SLOT_RAM_FIELDS.items()}
 
-    async def write_at(ctx, k, when, addr, value):
+    def write_at(ctx, k, when, addr, value):
         """Hold the write on the bus in clock ``when``; the clock number k of the tick to come."""
         if k == when:
             ctx.set(dut.bus.addr, addr)
@@ -145,7 +145,7 @@ def test_the_ram_view_shows_a_write_from_the_same_clock_on_at_every_phase_of_its
         assert ctx.get(dut.regs[0].enable) == ctrl.field("enable").reset
         shown = None
         for k in range(1, 4 * REGISTER_STAGING):
-            await write_at(ctx, k, 1, ctrl.addr, (1 - ctrl.field("enable").reset) << ctrl.field("enable").lsb)
+            write_at(ctx, k, 1, ctrl.addr, (1 - ctrl.field("enable").reset) << ctrl.field("enable").lsb)
             await ctx.tick()
             if shown is None and ctx.get(dut.regs[0].enable) != ctrl.field("enable").reset:
                 shown = k
@@ -164,7 +164,7 @@ def test_the_ram_view_shows_a_write_from_the_same_clock_on_at_every_phase_of_its
                 ctx.set(rst, 0)
                 taken = None
                 for k in range(1, phase + 4 * slots + landed + 2):
-                    await write_at(ctx, k, phase + 1, rmap.addr(reg_name, ch), v)
+                    write_at(ctx, k, phase + 1, rmap.addr(reg_name, ch), v)
                     taken = phase + 1 if k >= phase + 1 else None
                     await ctx.tick()
                     s = (slots - 1 + k - 1) % slots      # the slot the view read, its values of clock k - 1
