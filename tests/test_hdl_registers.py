@@ -15,30 +15,42 @@ from rast.model.powerup import ChannelInit
 from rast.model.regmap import register_map
 
 
-@pytest.mark.parametrize("slots, channels", [(1, 2), (3, 5), (4, 6), (10, 13)])
-def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_reset_values(slots, channels):
-    rng = np.random.default_rng(slots)
+def _ram_view_dut(slots, inits):
+    """The register file of ``len(inits)`` channels in pipelines of
+    ``slots`` (as the engine groups them), under a reset of the test's own:
+    (register map, groups, dut, top module, reset signal)."""
+    channels = len(inits)
     c = ReplayContract(channels=channels, slots=slots, pool_words=64, max_delay=5, max_tap=2,
                        interpolation="hold")
-    inits = [ChannelInit(words=(1,) * int(rng.integers(1, 9)), phase_increment=int(rng.integers(1, 1 << 20)),
-                         gain=int(rng.integers(1, 1 << 17)), base=int(rng.integers(0, 32)))
-             for _ in range(channels)]
     rmap = register_map(c, inits)
     groups = [list(range(p * slots, min(channels, (p + 1) * slots))) for p in range(c.pipelines)]
-    wd = REGISTER_STAGING
     dut = RegisterFile(rmap, groups=groups, slots=slots)
     rst = Signal()
     top = Module()
     top.submodules.dut = ResetInserter(rst)(dut)
+    return rmap, groups, dut, top, rst
 
-    def reset_values():
-        return {(ch, name): rmap.reg(reg, ch).field(field).reset
-                for ch in range(channels) for name, (reg, field) in SLOT_RAM_FIELDS.items()}
 
-    def random_value(ch, name):
-        f = rmap.reg(SLOT_RAM_FIELDS[name][0], ch).field(SLOT_RAM_FIELDS[name][1])
-        lo, hi = f.clamp or (0, (1 << f.width) - 1)
-        return int(rng.integers(lo, hi + 1))
+def _reset_values(rmap, channels):
+    return {(ch, name): rmap.reg(reg, ch).field(field).reset
+            for ch in range(channels) for name, (reg, field) in SLOT_RAM_FIELDS.items()}
+
+
+def _random_value(rng, rmap, ch, name):
+    """A value of the field ``name`` of channel ``ch`` inside its range."""
+    f = rmap.reg(SLOT_RAM_FIELDS[name][0], ch).field(SLOT_RAM_FIELDS[name][1])
+    lo, hi = f.clamp or (0, (1 << f.width) - 1)
+    return int(rng.integers(lo, hi + 1))
+
+
+@pytest.mark.parametrize("slots, channels", [(1, 2), (3, 5), (4, 6), (10, 13)])
+def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_reset_values(slots, channels):
+    rng = np.random.default_rng(slots)
+    inits = [ChannelInit(words=(1,) * int(rng.integers(1, 9)), phase_increment=int(rng.integers(1, 1 << 20)),
+                         gain=int(rng.integers(1, 1 << 17)), base=int(rng.integers(0, 32)))
+             for _ in range(channels)]
+    rmap, groups, dut, top, rst = _ram_view_dut(slots, inits)
+    wd = REGISTER_STAGING
 
     async def write(ctx, addr, value):
         ctx.set(dut.bus.addr, addr)
@@ -66,14 +78,14 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
 
     async def bench(ctx):
         ctx.set(dut.take, 1)
-        expect = reset_values()
+        expect = _reset_values(rmap, channels)
         seen, since_reset = await view(ctx, 0)
         # power-up is as after a reset: the view's slot counter at slots - 1
         assert seen == expect, "power-up: the view must show the reset values"
         for _ in range(3):
             for ch in rng.permutation(channels)[:max(1, channels // 2)]:
                 name = str(rng.choice(list(SLOT_RAM_FIELDS)))
-                v = random_value(int(ch), name)
+                v = _random_value(rng, rmap, int(ch), name)
                 await write(ctx, rmap.addr(SLOT_RAM_FIELDS[name][0], int(ch)), v)
                 since_reset += 1 + take_interval(slots) + wd
                 expect[(int(ch), name)] = v
@@ -84,11 +96,11 @@ def test_the_ram_view_shows_each_slots_written_values_and_after_a_reset_the_rese
         await ctx.tick()
         ctx.set(rst, 0)
         seen, since_reset = await view(ctx, 0)
-        expect = reset_values()
+        expect = _reset_values(rmap, channels)
         assert seen == expect, "after a reset the view must show the reset values, not the RAM's"
         assert written != expect
         ch, name = 0, "gain"
-        v = random_value(ch, name)
+        v = _random_value(rng, rmap, ch, name)
         await write(ctx, rmap.addr("GAIN", ch), v)
         since_reset += 1 + slots + wd
         expect[(ch, name)] = v
@@ -119,16 +131,8 @@ def test_the_ram_view_shows_a_write_from_the_same_clock_on_at_every_phase_of_its
     whichever slot the view's counter reads when the write lands (the first
     test checks the values only once the writes have settled)."""
     rng = np.random.default_rng(100 + slots)
-    c = ReplayContract(channels=channels, slots=slots, pool_words=64, max_delay=5, max_tap=2,
-                       interpolation="hold")
-    rmap = register_map(c, [ChannelInit(words=(1, 2)) for _ in range(channels)])
-    groups = [list(range(p * slots, min(channels, (p + 1) * slots))) for p in range(c.pipelines)]
-    dut = RegisterFile(rmap, groups=groups, slots=slots)
-    rst = Signal()
-    top = Module()
-    top.submodules.dut = ResetInserter(rst)(dut)
-    reset_of = {(ch, name): rmap.reg(reg, ch).field(field).reset
-                for ch in range(channels) for name, (reg, field) in SLOT_RAM_FIELDS.items()}
+    rmap, groups, dut, top, rst = _ram_view_dut(slots, [ChannelInit(words=(1, 2)) for _ in range(channels)])
+    reset_of = _reset_values(rmap, channels)
 
     def write_at(ctx, k, when, addr, value):
         """Hold the write on the bus in clock ``when``; the clock number k of the tick to come."""
@@ -152,28 +156,24 @@ def test_the_ram_view_shows_a_write_from_the_same_clock_on_at_every_phase_of_its
         assert shown is not None, "CTRL.enable must show the write"
         landed = shown - 1
         for phase in range(slots):
-            for name, (reg_name, field_name) in SLOT_RAM_FIELDS.items():
+            taken = phase + 1
+            for name, (reg_name, _) in SLOT_RAM_FIELDS.items():
                 ch = int(rng.integers(channels))
-                f = rmap.reg(reg_name, ch).field(field_name)
-                lo, hi = f.clamp or (0, (1 << f.width) - 1)
                 v = reset_of[(ch, name)]
                 while v == reset_of[(ch, name)]:
-                    v = int(rng.integers(lo, hi + 1))
+                    v = _random_value(rng, rmap, ch, name)
                 ctx.set(rst, 1)
                 await ctx.tick()
                 ctx.set(rst, 0)
-                taken = None
-                for k in range(1, phase + 4 * slots + landed + 2):
-                    write_at(ctx, k, phase + 1, rmap.addr(reg_name, ch), v)
-                    taken = phase + 1 if k >= phase + 1 else None
+                for k in range(1, taken + 4 * slots + landed + 1):
+                    write_at(ctx, k, taken, rmap.addr(reg_name, ch), v)
                     await ctx.tick()
                     s = (slots - 1 + k - 1) % slots      # the slot the view read, its values of clock k - 1
                     for g, members in enumerate(groups):
                         if s >= len(members):
                             continue
                         for n in SLOT_RAM_FIELDS:
-                            written = (members[s], n) == (ch, name) and taken is not None \
-                                and k - 1 >= taken + landed
+                            written = (members[s], n) == (ch, name) and k - 1 >= taken + landed
                             want = v if written else reset_of[(members[s], n)]
                             got = ctx.get(dut.values[g][n])
                             assert got == want, (f"phase {phase}, {name} of channel {ch} written at clock "
