@@ -1,9 +1,9 @@
 """The stream pool's SDRAM back end: the block-RAM pool's interface over LiteDRAM's native port."""
 
-from amaranth.hdl import Module, Signal, Cat
+from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.cdc import FFSynchronizer
-from amaranth.lib.fifo import AsyncFIFO, SyncFIFO
+from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from .crossing_queue import CrossingQueue
@@ -38,13 +38,18 @@ class SDRAMStreamPool(wiring.Component):
 
     Engine side, all in ``sync``:
 
-    * fetches ``r_valid``/``r_ready``/``r_addr``/``r_tag``: a fetch is taken
-      when ``r_valid & r_ready``; a refused one is the engine's to retry.
-      ``r_ready`` is low while ``queue_depth`` reads are outstanding (issued and
-      not yet answered; counted a clock before, so it may stay low a clock
-      longer). A taken access enters the queues a clock later, from a
-      register: every decision here is taken from registers, for a 200 MHz
-      fabric.
+    * fetches ``r_valid``/``r_ready``/``r_addr``/``r_tag``, a ``lib.stream``
+      handshake: once raised, ``r_valid`` (and the fetch) stays until
+      ``r_ready``; ``rd_valid`` and ``w_valid`` the same. The pool decides
+      from registers only, for a 200 MHz fabric: in one clock it grants an
+      access (fetch, host read or host write) by the valids it sees, in the
+      next ``r_ready``, ``rd_ready`` or ``w_ready`` is that grant's register
+      and the access goes into the queues. A clock with a grant decides
+      nothing, so an access is taken at most every other clock (100 M
+      accesses/s at 200 MHz; the SDRAM serves 25 M words/s). No read is
+      granted while
+      ``queue_depth`` reads are outstanding (issued and not yet answered;
+      counted a clock before, so a grant may wait a clock longer).
     * answers ``d_valid``/``d_tag``/``d_data``: one per taken fetch, **in the
       order taken**, ``d_tag`` the fetch's tag. No back-pressure (the engine
       takes every answer; room for all outstanding answers is reserved).
@@ -52,20 +57,18 @@ class SDRAMStreamPool(wiring.Component):
       ``rd_valid``/``rd_ready``/``rd_addr`` → ``rd_data_valid``/``rd_data``
       (read-back for verification). Fetches, host reads and host writes go
       through one queue in the order taken, so a host read or a fetch taken
-      after a write of the same address returns the new word. Priority in one
-      clock: fetch, then host read, then host write, except that a host
-      operation kept waiting by a taken fetch goes first at its next chance
-      (``r_ready`` is then low for that clock), so neither side starves. A
-      fetch is queued behind at most ``2 * queue_depth`` host writes.
-    * ``lost``: sticky, a read answer arrived with no room (cannot happen while
-      the reservation above holds; tests assert it stays 0).
+      after a write of the same address returns the new word. Priority of a
+      grant: fetch, then host read, then host write, except that a host
+      operation kept waiting by a granted fetch gets the next grant it can
+      use, so neither side starves. A fetch is queued behind at most
+      ``2 * queue_depth`` host writes.
+    * ``lost``: sticky, a read answer or an access arrived at a full queue
+      (cannot happen while the reservations hold; tests assert it stays 0).
 
-    SDRAM side: ``native`` (:func:`native_port_signature`) in ``sdram_domain``;
-    with a domain other than ``sync`` the command queue is an
-    :class:`~amaranth.lib.fifo.AsyncFIFO`, otherwise a
-    :class:`~amaranth.lib.fifo.SyncFIFO`; the answer queue is a
-    :class:`~rast.hdl.crossing_queue.CrossingQueue` (the engine side takes
-    an answer at most every other clock, far above the SDRAM's rate).
+    SDRAM side: ``native`` (:func:`native_port_signature`) in ``sdram_domain``.
+    Both queues are :class:`~rast.hdl.crossing_queue.CrossingQueue`\ s: the
+    commands' read by the controller's handshake, the answers' taken by the
+    engine side at most every other clock (far above the SDRAM's rate).
 
     Parameters
     ----------
@@ -133,11 +136,11 @@ class SDRAMStreamPool(wiring.Component):
         m = Module()
         aw, Q, sd = self._addr_width, self._queue_depth, self._sdram_domain
         cmd_layout = data.StructLayout({"we": 1, "addr": aw, "data": WORD_WIDTH})
-        if sd == "sync":
-            m.submodules.cmd_q = cmd_q = SyncFIFO(width=cmd_layout.size, depth=4 * Q)
-        else:
-            m.submodules.cmd_q = cmd_q = AsyncFIFO(width=cmd_layout.size, depth=4 * Q,
-                                                   w_domain="sync", r_domain=sd)
+        # commands: written from the grant registers, never gated (the
+        # reservations below keep room; an AsyncFIFO's full compare in front
+        # of its write pointer and memory was 6.8 ns at a 200 MHz fabric)
+        m.submodules.cmd_q = cmd_q = CrossingQueue(cmd_layout.size, 4 * Q, w_domain="sync", r_domain=sd,
+                                                   reader="stream")
         # answers: taken by the engine side on its own, from registers (an
         # AsyncFIFO's read enable in front of its memory's address was 9.3 ns
         # at a 200 MHz fabric)
@@ -146,10 +149,12 @@ class SDRAMStreamPool(wiring.Component):
         m.submodules.tag_q = tag_q = SyncFIFO(width=self._tag_width + 1, depth=Q)
 
         # --- engine side (sync) -------------------------------------------------
-        # At a 200 MHz fabric every decision here is taken from registers, and
-        # a taken access reaches the queues a clock later from a stage
-        # register (the take decoded from the requests straight into the
-        # queues' write ports was a 200 MHz SDRAM build's latest path, 9.1 ns).
+        # Every decision here is taken from registers: a grant is a one-hot
+        # register per kind, decided from the valids and the room registers,
+        # and in its clock the access goes into the queues, selected by the
+        # grant registers alone. (The take decoded from the valids into a
+        # stage register was 7.1 ns at a 200 MHz SDRAM build, straight into
+        # the queues 9.1 ns.)
         outstanding = Signal(range(Q + 1))
         # room: fewer than Q reads outstanding, from the count a clock before
         # (fewer than Q - 1 then, as one may have been taken since): reads
@@ -158,47 +163,44 @@ class SDRAMStreamPool(wiring.Component):
         room = Signal()
         m.d.sync += room.eq(outstanding < Q - 1)
         # The command queue holds 4Q; reads are at most Q of it and host writes
-        # are taken while it held fewer than 2Q - 2 a clock before (a clock of
-        # this register's, one of the stage's), so at most 2Q: neither ever
-        # finds it full. A write burst delays a fetch (by 2Q writes at most),
-        # never refuses it, and outstanding reads never block a write.
+        # are granted while it held fewer than 2Q - 2 two clocks before (its
+        # level is a clock late, this register another; one access taken in
+        # those clocks, one by the grant), so at most 2Q: neither ever finds
+        # it full. A write burst delays a fetch (by 2Q writes at most), never
+        # refuses it, and outstanding reads never block a write.
         write_room = Signal()
         m.d.sync += write_room.eq(cmd_q.w_level < 2 * Q - 2)
-        # Fetches first, except that a host operation kept waiting by a taken
-        # fetch gets the next clock it can use (host_turn): under any fetch load
-        # the host is served at least every other accepted operation.
+        # Fetches first, except that a host operation kept waiting by a granted
+        # fetch gets the next grant it can use (host_turn): under any fetch
+        # load the host is served at least every other access. A host read
+        # goes before a host write.
+        grant_fetch, grant_hread, grant_write = Signal(), Signal(), Signal()
+        granted, read_granted = Signal(), Signal()     # any grant; a fetch's or a host read's
         host_turn = Signal()
-        host_can = (self.rd_valid & room) | (~self.rd_valid & self.w_valid & write_room)
-        host_first = host_turn & host_can
-        take_fetch = self.r_valid & room & ~host_first
-        host_slot = ~self.r_valid | host_first
-        take_hread = host_slot & self.rd_valid & room
-        take_write = host_slot & ~self.rd_valid & self.w_valid & write_room
-        m.d.comb += [
-            self.r_ready.eq(room & ~host_first),
-            self.rd_ready.eq(host_slot & room),
-            self.w_ready.eq(host_slot & ~self.rd_valid & write_room),
+        want_hread = self.rd_valid & room
+        want_write = ~self.rd_valid & self.w_valid & write_room
+        want_fetch = self.r_valid & room
+        fetch_first = want_fetch & ~(host_turn & (want_hread | want_write))
+        m.d.sync += [
+            grant_fetch.eq(~granted & fetch_first),
+            grant_hread.eq(~granted & want_hread & ~fetch_first),
+            grant_write.eq(~granted & want_write & ~fetch_first),
+            granted.eq(~granted & (want_fetch | want_hread | want_write)),
+            read_granted.eq(~granted & (fetch_first | want_hread)),
         ]
-        with m.If(take_hread | take_write):
+        with m.If(grant_hread | grant_write):
             m.d.sync += host_turn.eq(0)
-        with m.Elif(take_fetch & (self.rd_valid | self.w_valid)):
+        with m.Elif(grant_fetch & (self.rd_valid | self.w_valid)):
             m.d.sync += host_turn.eq(1)
-        # the stage: the taken access's command and (a read's) tag
-        cmd_stage = Signal(cmd_layout)
-        cmd_stage_valid = Signal()
-        tag_stage = Signal(self._tag_width + 1)
-        tag_stage_valid = Signal()
-        taken = take_fetch | take_hread            # a read (fetch or host read) taken
-        m.d.sync += [cmd_stage_valid.eq(taken | take_write), tag_stage_valid.eq(taken)]
-        with m.If(take_fetch):
-            m.d.sync += [cmd_stage.we.eq(0), cmd_stage.addr.eq(self.r_addr), tag_stage.eq(Cat(self.r_tag, 0))]
-        with m.Elif(take_hread):
-            m.d.sync += [cmd_stage.we.eq(0), cmd_stage.addr.eq(self.rd_addr), tag_stage.eq(1 << self._tag_width)]
-        with m.Else():
-            m.d.sync += [cmd_stage.addr.eq(self.w_addr), cmd_stage.data.eq(self.w_data), cmd_stage.we.eq(1)]
+        # a grant's access is taken into the queues in the grant's clock (its
+        # valid is still up: valids stay until ready)
+        command = cmd_layout(cmd_q.w_data)
         m.d.comb += [
-            cmd_q.w_en.eq(cmd_stage_valid), cmd_q.w_data.eq(cmd_stage),
-            tag_q.w_en.eq(tag_stage_valid), tag_q.w_data.eq(tag_stage),
+            self.r_ready.eq(grant_fetch), self.rd_ready.eq(grant_hread), self.w_ready.eq(grant_write),
+            cmd_q.w_en.eq(granted), command.we.eq(grant_write), command.data.eq(self.w_data),
+            command.addr.eq(Mux(grant_fetch, self.r_addr, Mux(grant_hread, self.rd_addr, self.w_addr))),
+            tag_q.w_en.eq(read_granted),
+            tag_q.w_data.eq(Mux(grant_fetch, Cat(self.r_tag, 0), 1 << self._tag_width)),
         ]
         # Answers: the tag queue pops with each answer taken (a read's tag is
         # in its queue long before its answer is in the answer queue);
@@ -211,9 +213,9 @@ class SDRAMStreamPool(wiring.Component):
             self.d_data.eq(ans_q.r_data),
             self.rd_data_valid.eq(pop & host), self.rd_data.eq(ans_q.r_data),
         ]
-        with m.If(taken & ~pop):
+        with m.If(read_granted & ~pop):
             m.d.sync += outstanding.eq(outstanding + 1)
-        with m.Elif(~taken & pop):
+        with m.Elif(~read_granted & pop):
             m.d.sync += outstanding.eq(outstanding - 1)
 
         # --- SDRAM side ---------------------------------------------------------
@@ -237,8 +239,10 @@ class SDRAMStreamPool(wiring.Component):
         # Room for every outstanding read's answer is reserved on the engine side
         # (outstanding <= Q, answer queue 2Q), so rdata is always taken.
         m.d.comb += [n.rdata.ready.eq(1), ans_q.w_en.eq(n.rdata.valid), ans_q.w_data.eq(n.rdata.payload)]
+        answer_lost = Signal()
         if sd == "sync":
-            m.d.comb += self.lost.eq(ans_q.overflow)
+            m.d.comb += answer_lost.eq(ans_q.overflow)
         else:
-            m.submodules.lost_sync = FFSynchronizer(ans_q.overflow, self.lost, o_domain="sync")
+            m.submodules.lost_sync = FFSynchronizer(ans_q.overflow, answer_lost, o_domain="sync")
+        m.d.comb += self.lost.eq(answer_lost | cmd_q.overflow)
         return m

@@ -338,7 +338,9 @@ async def pool(dut):
                 bench.host_expect.append((bench.model_read(addr), addr))
                 break
     await bench.step({"rd_valid": 0})
-    # --- play: the engine's scan, one channel offered per clock ---------------
+    # --- play: the engine's scan, one channel looked at per clock --------------
+    # A fetch offered and refused stays offered until taken (the engine's
+    # request FIFO holds it the same way), the scan waiting behind it.
     # Stress mode (no consume_period): an answer is consumed at once, so every
     # channel always wants a fetch and the pool is saturated. Rate mode: each
     # channel consumes one word every consume_period clocks (staggered), from
@@ -361,10 +363,14 @@ async def pool(dut):
     pending_writes = collections.deque()
     fetch_pattern = p.get("fetch_pattern", "1")
     play_start = bench.cycle
+    scan, held = 0, None
     for c in range(p["play_cycles"]):
-        ch = c % tags
         drive = {"r_valid": 0, "w_valid": 0, "rd_valid": 0}
-        want = cached[ch] + inflight[ch] < ahead and fetch_pattern[c % len(fetch_pattern)] == "1"
+        if held is None:
+            ch, scan = scan, (scan + 1) % tags
+            want = cached[ch] + inflight[ch] < ahead and fetch_pattern[c % len(fetch_pattern)] == "1"
+        else:
+            ch, want = held, True
         if period is not None:
             if consume_from is None and all(k == ahead for k in cached):
                 consume_from = c
@@ -399,6 +405,7 @@ async def pool(dut):
                 a, w = pending_writes[0]
                 drive.update(w_valid=1, w_addr=a, w_data=w)
         taken = await bench.step(drive)
+        held = None
         if "r" in taken:
             bench.take_fetch(ch, addr)
             inflight[ch] += 1
@@ -406,6 +413,7 @@ async def pool(dut):
             bench.stats["fetches"] += 1
         elif want:
             bench.stats["refused"] += 1
+            held = ch
         if "w" in taken:
             a, w = pending_writes.popleft()
             bench.model_write(a, w)

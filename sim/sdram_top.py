@@ -12,7 +12,7 @@ initialised by the CPU-less sequencer.
 
 Both are :class:`OnSimSDRAM`: one clock port, the controller's clock the
 fabric clock divided by 4 (a flip-flop), 50 MHz beside 200 MHz as on the
-board, two domains crossing through the pool's ``AsyncFIFO``s.
+board, two domains crossing through the pool's ``CrossingQueue``\ s.
 """
 
 from amaranth.hdl import ClockDomain, ClockSignal, Module, ResetSignal, Signal
@@ -115,11 +115,7 @@ class OnSimSDRAM(wiring.Component):
     def verilog_sources(self, name):
         """``{file: Verilog}``: this top as module ``name`` and LiteDRAM's core."""
         from amaranth.back import verilog
-        # Amaranth's AsyncFIFO carries the write domain's reset into the read
-        # domain through a ResetSynchronizer (asserted asynchronously, by design),
-        # while the testbenches drive that reset from a flip-flop: Verilator's
-        # SYNCASYNCNET names exactly this, and is waived in this file only.
-        text = "/* verilator lint_off SYNCASYNCNET */\n" + verilog.convert(self, name=name, emit_src=False)
+        text = verilog.convert(self, name=name, emit_src=False)
         return {f"{name}.v": text, f"{CORE_NAME}.v": litedram_for_verilator(self._generated.verilog)}
 
     def elaborate(self, platform):
