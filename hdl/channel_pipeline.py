@@ -831,19 +831,33 @@ class ChannelPipeline(wiring.Component):
             arrived = Signal(depth, name="arrived")
             playing = Signal(name="playing")
             m.d.comb += playing.eq(rg.enable & present_v)
-            # A grant clears its position's bit a clock later, from registers
-            # of its own (the grant's logic into the bits' decode was among a
-            # 200 MHz SDRAM build's late paths, 6.4 ns); the checks below
-            # look a clock later too, so they see the same bits. (A word
-            # arrives dozens of clocks after its grant, never in between.)
+            # A grant clears its position's bit two clocks later and a fill
+            # sets its bit a clock later, each from its address decoded into
+            # two one-hot registers (upper and lower bits), so that a bit's
+            # update is one LUT of five registers: the grant's logic into
+            # the bits' decode was 6.4 ns at a 200 MHz SDRAM build, and the
+            # decode of the registered addresses into 256 bits 6.9 ns at
+            # M = 10. The checks below look as much later, so they see the
+            # same bits. (A word arrives dozens of clocks after its grant,
+            # never in between.)
+            abits = (depth - 1).bit_length()
+            lo_bits = (abits + 1) // 2
+
+            def one_hot(valid, addr, name):
+                lo = Signal(1 << lo_bits, name=f"{name}_lo", reset_less=True)
+                hi = Signal(1 << (abits - lo_bits), name=f"{name}_hi")
+                m.d.sync += [lo.eq(1 << addr[:lo_bits]), hi.eq(Mux(valid, 1 << addr[lo_bits:abits], 0))]
+                return lo, hi
             grant_q = Signal(name="arrival_grant")
-            grant_pos = Signal(POS_BITS + (SB if M > 1 else 0), name="arrival_pos")
+            grant_pos = Signal(abits, name="arrival_pos")
             m.d.sync += [grant_q.eq(a["grant"]),
                          grant_pos.eq(Cat(st.f_pos, vslot[:SB]) if M > 1 else st.f_pos)]
-            with m.If(grant_q):
-                m.d.sync += arrived.bit_select(grant_pos, 1).eq(0)
-            with m.If(self.fill_en):
-                m.d.sync += arrived.bit_select(fill_addr, 1).eq(1)
+            clear_lo, clear_hi = one_hot(grant_q, grant_pos, "arrival_clear")
+            set_lo, set_hi = one_hot(self.fill_en, fill_addr, "arrival_set")
+            for k in range(depth):
+                lo, hi = k & ((1 << lo_bits) - 1), k >> lo_bits
+                m.d.sync += arrived[k].eq((set_hi[hi] & set_lo[lo])
+                                          | (arrived[k] & ~(clear_hi[hi] & clear_lo[lo])))
 
         def cache_read(ports, pos, name, matters=None, clocks=1):
             """The cache word at ``pos`` of the visiting slot, the address
@@ -960,14 +974,20 @@ class ChannelPipeline(wiring.Component):
         if fir:
             self._elaborate_mac(m, platform, st, caches[0], cache_read, mac_put, mac_val)
         if checks:
-            # each check a clock after its read (as the grants' clears, above),
-            # into a register of its own, then their OR (a read's bit select
-            # and the OR in one clock were 6.5 ns at a 200 MHz SDRAM build)
+            # each check two clocks after its read (as the bits' updates,
+            # above), its bit selected in two registered levels (a group of
+            # bits by the lower address bits, then the group by the upper:
+            # the whole selection in one clock was 8.8 ns at M = 10), each
+            # check's result into a register of its own, then their OR
             late = []
             for k, (addr, chk) in enumerate(checks):
+                at = _delay(m, addr, 2, f"check{k}_addr", data=True)
+                groups = Signal(depth >> lo_bits, name=f"check{k}_groups", reset_less=True)
+                m.d.sync += [groups[g].eq(arrived[g << lo_bits:(g + 1) << lo_bits].bit_select(at[:lo_bits], 1))
+                             for g in range(len(groups))]
+                upper = _delay(m, at[lo_bits:abits], 1, f"check{k}_upper", data=True)
                 bit = Signal(name=f"late{k}")
-                m.d.sync += bit.eq(_delay(m, chk, 1, f"check{k}") & ~arrived.bit_select(
-                    _delay(m, addr, 1, f"check{k}_addr", data=True), 1))
+                m.d.sync += bit.eq(_delay(m, chk, 3, f"check{k}") & ~groups.bit_select(upper, 1))
                 late.append(bit)
             m.d.sync += self.underflow.eq(Cat(*late).any())
 

@@ -507,8 +507,12 @@ class WindFarmReplay(wiring.Component):
         ored(requests, (req_valid, req_addr, req_tag))
 
         if sdram:
-            m.d.comb += [regs.underflow_set.eq(Cat(pl.underflow for pl in pipes).any()),
-                         self.underflow.eq(regs.underflow)]
+            # the pipelines' flags ORed into a register first (STATUS's
+            # sticky bit a clock later): from every pipeline into the sticky
+            # bit's own logic was 5.9 ns at a 200 MHz SDRAM build
+            underflow_any = Signal()
+            m.d.sync += underflow_any.eq(Cat(pl.underflow for pl in pipes).any())
+            m.d.comb += [regs.underflow_set.eq(underflow_any), self.underflow.eq(regs.underflow)]
 
         # ---- the sum over the pipelines, saturation, the output FIFO --------------
         assert ACCEPT_LAG + pipes[0].sum_cycles + TREE_LEVEL_CYCLES * tree_levels(P) + 2 == K
