@@ -31,9 +31,11 @@ class PoolReadCheck(wiring.Component):
     Members
     -------
     start : In(1), addr : In(addr_width), words : In(count_width)
-        A strobe and what to read; a start while busy is ignored (a read
-        answer may still be on its way).
+        A strobe and what to read (taken with the strobe, acted on a clock
+        later); a start while busy is ignored (a read answer may still be on
+        its way).
     busy : Out(1)
+        From the clock after the start's until the last word's CRC is in.
     crc : Out(32)
         zlib's CRC-32 of the words read so far (of all of them once ``busy`` is 0).
     rd_valid : Out(1), rd_ready : In(1), rd_addr : Out(addr_width)
@@ -56,28 +58,36 @@ class PoolReadCheck(wiring.Component):
         m = Module()
         reg = Signal(32, init=0xFFFFFFFF)
         left = Signal.like(self.words)
+        left_nz = Signal()               # left != 0, kept beside left
         word = Signal(32)
         byte = Signal(range(5))          # bytes of ``word`` still to shift in
         asked = Signal()                 # the read of this word went out
+        busy = Signal()
         m.d.comb += self.crc.eq(~reg)
-        # rd_valid is a register: words left, this word not asked for, no
-        # byte to shift in. It rises with the start, and again in the clock
-        # after the last byte's (from its compare then: ``left != 0`` and the
+        # A start is taken into registers first (with its ``words != 0``),
+        # and acted on a clock later; ``busy`` covers that clock. rd_valid is
+        # a register: words left, this word not asked for, no byte to shift
+        # in. It rises a clock after the start, and again in the clock after
+        # the last byte's, each time from registers (``left != 0`` and the
         # state decoded into the pool's request were a 200 MHz SDRAM build's
-        # latest path, 9.3 ns). ``busy`` (words left or bytes to shift in) is
-        # a register the same way: it changes only there (as ``left != 0``
-        # decoded into the start's resets it was 7.3 ns at 200 MHz).
-        with m.If(self.start & ~self.busy):
-            m.d.sync += [reg.eq(0xFFFFFFFF), left.eq(self.words), self.rd_addr.eq(self.addr),
-                         self.rd_valid.eq(self.words != 0), self.busy.eq(self.words != 0)]
+        # latest path, 9.3 ns; the start's ``words != 0`` and ``left != 0``
+        # into it, 7.2 ns). ``busy`` changes only there too.
+        start, start_addr, start_words, start_any = (Signal(), Signal.like(self.addr),
+                                                     Signal.like(self.words), Signal())
+        m.d.sync += [start.eq(self.start & ~self.busy), start_addr.eq(self.addr),
+                     start_words.eq(self.words), start_any.eq(self.words != 0)]
+        m.d.comb += self.busy.eq(busy | start)
+        with m.If(start):
+            m.d.sync += [reg.eq(0xFFFFFFFF), left.eq(start_words), left_nz.eq(start_any),
+                         self.rd_addr.eq(start_addr), self.rd_valid.eq(start_any), busy.eq(start_any)]
         with m.Else():
             with m.If(self.rd_valid & self.rd_ready):
                 m.d.sync += [asked.eq(1), self.rd_addr.eq(self.rd_addr + 1), self.rd_valid.eq(0)]
             with m.If(asked & self.rd_data_valid):
-                m.d.sync += [word.eq(self.rd_data), byte.eq(4), asked.eq(0), left.eq(left - 1)]
+                m.d.sync += [word.eq(self.rd_data), byte.eq(4), asked.eq(0), left.eq(left - 1),
+                             left_nz.eq(left != 1)]
             with m.If(byte != 0):
                 m.d.sync += [reg.eq(crc32_step(reg, word[:8])), word.eq(word >> 8), byte.eq(byte - 1)]
             with m.If(byte == 1):
-                more = left != 0
-                m.d.sync += [self.rd_valid.eq(more), self.busy.eq(more)]
+                m.d.sync += [self.rd_valid.eq(left_nz), busy.eq(left_nz)]
         return m
