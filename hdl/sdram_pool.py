@@ -47,9 +47,9 @@ class SDRAMStreamPool(wiring.Component):
       and the access goes into the queues. A clock with a grant decides
       nothing, so an access is taken at most every other clock (100 M
       accesses/s at 200 MHz; the SDRAM serves 25 M words/s). No read is
-      granted while
-      ``queue_depth`` reads are outstanding (issued and not yet answered;
-      counted a clock before, so a grant may wait a clock longer).
+      granted while ``queue_depth`` reads are outstanding (issued and not
+      yet answered; counted a clock before, so a grant may wait a clock
+      longer).
     * answers ``d_valid``/``d_tag``/``d_data``: one per taken fetch, **in the
       order taken**, ``d_tag`` the fetch's tag. No back-pressure (the engine
       takes every answer; room for all outstanding answers is reserved).
@@ -66,7 +66,7 @@ class SDRAMStreamPool(wiring.Component):
       (cannot happen while the reservations hold; tests assert it stays 0).
 
     SDRAM side: ``native`` (:func:`native_port_signature`) in ``sdram_domain``.
-    Both queues are :class:`~rast.hdl.crossing_queue.CrossingQueue`\ s: the
+    Each queue is a :class:`~rast.hdl.crossing_queue.CrossingQueue`: the
     commands' read by the controller's handshake, the answers' taken by the
     engine side at most every other clock (far above the SDRAM's rate).
 

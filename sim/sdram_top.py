@@ -12,7 +12,7 @@ initialised by the CPU-less sequencer.
 
 Both are :class:`OnSimSDRAM`: one clock port, the controller's clock the
 fabric clock divided by 4 (a flip-flop), 50 MHz beside 200 MHz as on the
-board, two domains crossing through the pool's ``CrossingQueue``\ s.
+board, two domains crossing through the pool's two ``CrossingQueue`` instances.
 """
 
 from amaranth.hdl import ClockDomain, ClockSignal, Module, ResetSignal, Signal
