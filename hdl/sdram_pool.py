@@ -175,7 +175,10 @@ class SDRAMStreamPool(wiring.Component):
         # load the host is served at least every other access. A host read
         # goes before a host write.
         grant_fetch, grant_hread, grant_write = Signal(), Signal(), Signal()
-        granted, read_granted = Signal(), Signal()     # any grant; a fetch's or a host read's
+        # any grant; a fetch's or a host read's: ORs of the grants above, kept
+        # as registers of their own so that the queues' write enables and the
+        # outstanding count start at a flip-flop, not at a LUT after three
+        granted, read_granted = Signal(), Signal()
         host_turn = Signal()
         want_hread = self.rd_valid & room
         want_write = ~self.rd_valid & self.w_valid & write_room
