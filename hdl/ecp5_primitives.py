@@ -32,7 +32,8 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 __all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "kept_lut", "lut4_init", "is_ecp5",
-           "dp16kd_mode", "DP16KD_MODES", "BLOCK_RAM_SITES", "block_ram_rows"]
+           "dp16kd_mode", "DP16KD_MODES", "BLOCK_RAM_SITES", "block_ram_rows",
+           "delay_line_floorplan"]
 
 #: DP16KD data widths and depths (single port of the pair), widest last.
 DP16KD_MODES = ((1, 16384), (2, 8192), (4, 4096), (9, 2048), (18, 1024))
@@ -58,6 +59,37 @@ def block_ram_rows(platform):
         return None
     ys, xs = BLOCK_RAM_SITES[platform.device]
     return [[f"X{x + 2 * k}/Y{y}/EBR{k}" for x in xs for k in range(4)] for y in ys]
+
+
+def delay_line_floorplan(rows, reserve, block, count):
+    """Sites for the delay lines where no pool's banks are placed (an SDRAM
+    build): ``(reserved[row], blocks)``, ``reserve`` neighbouring sites in the
+    middle of each row (the common line's share of it) and ``count`` blocks
+    of ``block`` neighbouring sites (one per pipeline's window), taken from
+    the rows in turn, in a checkerboard of the rows' left and right halves
+    (row by row the first half alternates), spread evenly along the half. Without them the placer packed an SDRAM
+    build's logic into one corner of the device, between the few RAMs and the
+    SDRAM pins (docs/bitstream.md, "The SDRAM build's delay lines placed");
+    the pool's banks spread a block-RAM build the same way. ``None`` where
+    ``rows`` is ``None`` or the blocks do not fit."""
+    if rows is None:
+        return None
+    reserved, halves = [], []
+    for row in rows:
+        at = (len(row) - reserve) // 2
+        reserved.append(row[at:at + reserve])
+        halves.append((row[:at], row[at + reserve:]))
+    where = [(i % len(rows), (i % len(rows) + i // len(rows)) % 2) for i in range(count)]
+    per_half = {key: [i for i, w in enumerate(where) if w == key] for key in set(where)}
+    blocks = [None] * count
+    for (r, h), users in per_half.items():
+        half, k = halves[r][h], len(users)
+        if k * block > len(half):
+            return None
+        for j, i in enumerate(users):
+            start = min(max(0, int((j + 0.5) * len(half) / k - block / 2)), len(half) - block)
+            blocks[i] = half[start:start + block]
+    return reserved, blocks
 
 
 def is_ecp5(platform) -> bool:

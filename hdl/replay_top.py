@@ -14,7 +14,7 @@ from .channel_pipeline import (ChannelPipeline, SlotInit, fetch_tag_layout, acce
 from .delay_line import DelayLine
 from .stream_pool import StreamPool
 from .output_fifo import OutputFIFO
-from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode
+from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode, delay_line_floorplan
 from .pool_check import PoolReadCheck
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
@@ -307,7 +307,8 @@ class WindFarmReplay(wiring.Component):
         # rows from its registers: 6.4-6.8 ns of one route), and the sites left
         # in blocks, one for each pipeline's window (rows in turn), whose RAMs
         # the placer had put in single free sites far apart (a window's write
-        # data, 5.6 ns of one route).
+        # data, 5.6 ns of one route). An SDRAM build, with no banks, places
+        # the lines the same way (delay_line_floorplan).
         ptag = fetch_tag_layout(M)
         pool_tag = data.StructLayout({"pipe": range(max(2, P)), "fetch": ptag})
         mode = dp16kd_mode(2 * INPUT_WIDTH, c.common_depth)
@@ -318,6 +319,8 @@ class WindFarmReplay(wiring.Component):
                                              reserve_sites=per_row, block_sites=win_mode[1] if win_mode else 0)
         reserved = pool and pool.reserved_sites(platform)
         window_blocks = (pool and pool.free_blocks(platform, P)) or []
+        if sdram and mode and win_mode and (plan := delay_line_floorplan(rows, per_row, win_mode[1], P)):
+            reserved, window_blocks = plan
         common_bits = DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
         common_groups = -(-2 * INPUT_WIDTH // common_bits)
         m.submodules.common = common = DelayLine(

@@ -292,6 +292,48 @@ def test_each_window_lies_in_a_block_of_its_own(channels, slots, banks, per_row)
             assert min(s) < 26 <= max(s), (r, s)
 
 
+
+@pytest.mark.parametrize("channels, slots", [(64, 10), (32, 10), (16, 2)])
+def test_an_sdram_build_places_its_delay_lines(channels, slots):
+    """With the streams in SDRAM (no pool banks to place), the delay lines
+    are still placed: the common line's 16 block RAMs in 4 neighbouring
+    sites in the middle of each row, each window's 4 in neighbouring sites
+    of one row, the windows taken from the rows in turn, in a checkerboard
+    of the rows' halves (no half of a row with two windows while another
+    half of that row has none), no site used twice."""
+    import re
+    from amaranth.back import rtlil
+    from rast.hdl.ecp5_primitives import block_ram_rows
+    rows = block_ram_rows(_85F())
+    P = -(-channels // slots)
+    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(channels, slots=slots, pool="sdram", pool_words=1 << 20,
+                                                     max_delay=8190, max_tap=2046), platform=_85F()))
+    assert len(bels) == 16 + P * 4 and None not in bels.values()
+    assert len(set(bels.values())) == len(bels)
+    common = [bel for path, bel in bels.items() if "window" not in path]
+    for row in rows:
+        index = sorted(row.index(bel) for bel in common if bel in row)
+        assert len(index) == 4 and index == list(range(index[0], index[0] + 4))
+        assert 52 // 4 <= index[0] <= 3 * 52 // 4
+    halves = {}
+    for path, bel in bels.items():
+        if "window" in path:
+            halves.setdefault(int(re.search(r"pipe(\d+)", path).group(1)), []).append(bel)
+    assert sorted(halves) == list(range(P))
+    used = {}
+    for p, sites in halves.items():
+        (row,) = {k for k, r in enumerate(rows) for bel in sites if bel in r}
+        index = sorted(rows[row].index(bel) for bel in sites)
+        assert index == list(range(index[0], index[0] + 4)), (p, index)
+        assert row == p % 4                                            # the rows in turn
+        used.setdefault((row, index[0] >= 26), []).append(p)
+    for row in range(4):
+        left, right = len(used.get((row, False), [])), len(used.get((row, True), []))
+        assert abs(left - right) <= 1, (row, left, right)
+    if P >= 4:                                                         # rows 0 and 1 start in different halves
+        assert (0, False) in used and (1, True) in used or (0, True) in used and (1, False) in used
+
+
 def test_stream_pool_no_floorplan_where_rows_lack_room():
     """Seven banks do not fit a row of 52 sites with a group each: no floorplan."""
     from amaranth.back import rtlil
