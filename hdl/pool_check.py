@@ -77,6 +77,10 @@ class PoolReadCheck(wiring.Component):
         m.d.sync += [start.eq(self.start & ~self.busy), start_addr.eq(self.addr),
                      start_words.eq(self.words), start_any.eq(self.words != 0)]
         m.d.comb += self.busy.eq(busy | start)
+        # left != 0 in a register of its own, a clock after ``left``: read at
+        # the word's last byte, three clocks after the word's decrement (the
+        # compare in the decrement's clock was 5.6 ns at a 200 MHz fabric)
+        m.d.sync += left_nz.eq(left != 0)
         with m.If(start):
             m.d.sync += [reg.eq(0xFFFFFFFF), left.eq(start_words), left_nz.eq(start_any),
                          self.rd_addr.eq(start_addr), self.rd_valid.eq(start_any), busy.eq(start_any)]
@@ -84,8 +88,7 @@ class PoolReadCheck(wiring.Component):
             with m.If(self.rd_valid & self.rd_ready):
                 m.d.sync += [asked.eq(1), self.rd_addr.eq(self.rd_addr + 1), self.rd_valid.eq(0)]
             with m.If(asked & self.rd_data_valid):
-                m.d.sync += [word.eq(self.rd_data), byte.eq(4), asked.eq(0), left.eq(left - 1),
-                             left_nz.eq(left != 1)]
+                m.d.sync += [word.eq(self.rd_data), byte.eq(4), asked.eq(0), left.eq(left - 1)]
             with m.If(byte != 0):
                 m.d.sync += [reg.eq(crc32_step(reg, word[:8])), word.eq(word >> 8), byte.eq(byte - 1)]
             with m.If(byte == 1):

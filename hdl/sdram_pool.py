@@ -3,7 +3,7 @@
 from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.cdc import FFSynchronizer
-from amaranth.lib.fifo import SyncFIFO
+from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from .crossing_queue import CrossingQueue
@@ -145,8 +145,16 @@ class SDRAMStreamPool(wiring.Component):
         # AsyncFIFO's read enable in front of its memory's address was 9.3 ns
         # at a 200 MHz fabric)
         m.submodules.ans_q = ans_q = CrossingQueue(WORD_WIDTH, 2 * Q, w_domain=sd, r_domain="sync")
-        # Tag and kind (1 = host read) of every outstanding read, in order.
-        m.submodules.tag_q = tag_q = SyncFIFO(width=self._tag_width + 1, depth=Q)
+        # Tag and kind (1 = host read) of every outstanding read, in order: a
+        # ring of Q, written with each read granted and read with each answer
+        # taken. Reads outstanding never exceed Q (``room`` below) and an
+        # answer never comes before its read's tag, so the ring needs no level
+        # (a SyncFIFO's level and its compares were 5.3-5.7 ns in 200 MHz
+        # SDRAM builds).
+        m.submodules.tag_ring = tag_ring = Memory(shape=self._tag_width + 1, depth=Q, init=[],
+                                                  attrs={"ram_style": "distributed"})
+        tag_w, tag_r = tag_ring.write_port(), tag_ring.read_port(domain="comb")
+        tag_w_at, tag_r_at = Signal(range(Q), name="tag_w_at"), Signal(range(Q), name="tag_r_at")
 
         # --- engine side (sync) -------------------------------------------------
         # Every decision here is taken from registers: a grant is a one-hot
@@ -202,17 +210,21 @@ class SDRAMStreamPool(wiring.Component):
             self.r_ready.eq(grant_fetch), self.rd_ready.eq(grant_hread), self.w_ready.eq(grant_write),
             cmd_q.w_en.eq(granted), command.we.eq(grant_write), command.data.eq(self.w_data),
             command.addr.eq(Mux(grant_fetch, self.r_addr, Mux(grant_hread, self.rd_addr, self.w_addr))),
-            tag_q.w_en.eq(read_granted),
-            tag_q.w_data.eq(Mux(grant_fetch, Cat(self.r_tag, 0), 1 << self._tag_width)),
+            tag_w.en.eq(read_granted), tag_w.addr.eq(tag_w_at),
+            tag_w.data.eq(Mux(grant_fetch, Cat(self.r_tag, 0), 1 << self._tag_width)),
         ]
+        with m.If(read_granted):
+            m.d.sync += tag_w_at.eq(tag_w_at + 1)
         # Answers: the tag queue pops with each answer taken (a read's tag is
         # in its queue long before its answer is in the answer queue);
         # outputs registered.
         pop = ans_q.r_take
-        m.d.comb += tag_q.r_en.eq(pop)
-        host = tag_q.r_data[self._tag_width]
+        m.d.comb += tag_r.addr.eq(tag_r_at)
+        with m.If(pop):
+            m.d.sync += tag_r_at.eq(tag_r_at + 1)
+        host = tag_r.data[self._tag_width]
         m.d.sync += [
-            self.d_valid.eq(pop & ~host), self.d_tag.eq(tag_q.r_data[:self._tag_width]),
+            self.d_valid.eq(pop & ~host), self.d_tag.eq(tag_r.data[:self._tag_width]),
             self.d_data.eq(ans_q.r_data),
             self.rd_data_valid.eq(pop & host), self.rd_data.eq(ans_q.r_data),
         ]
