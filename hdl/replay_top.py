@@ -5,7 +5,6 @@ from functools import reduce
 
 from amaranth.hdl import Module, Signal, Mux, Cat, Const, signed
 from amaranth.lib import wiring, stream, data
-from amaranth.lib.fifo import SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
@@ -16,6 +15,7 @@ from .stream_pool import StreamPool
 from .output_fifo import OutputFIFO
 from .ecp5_primitives import kept_register, block_ram_rows, dp16kd_mode, delay_line_floorplan
 from .pool_check import PoolReadCheck
+from .registered_fifo import RegisteredFIFO
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
@@ -397,12 +397,16 @@ class WindFarmReplay(wiring.Component):
             # request registers, the top's request register; one more with
             # the group's), so a pipeline is offered fetches only while the
             # FIFO, as counted a clock before, has room for every offer since.
-            # (buffered: the pool decides on its head from registers)
-            m.submodules.req_fifo = req_fifo = SyncFIFOBuffered(width=len(req_addr) + pool_tag.size,
-                                                               depth=SDRAM_REQUEST_FIFO)
+            # (buffered: the pool decides on its head from registers; its
+            # level a thermometer code, so that the credit is a flip-flop's
+            # copy: SDRAM_REQUEST_FIFO words, a ring of one fewer and the head)
+            m.submodules.req_fifo = req_fifo = RegisteredFIFO(len(req_addr) + pool_tag.size,
+                                                              SDRAM_REQUEST_FIFO - 1)
             credit = Signal()
             req_lost = Signal()
-            m.d.sync += credit.eq(req_fifo.level <= SDRAM_REQUEST_FIFO - V - 4 - REQUEST_CYCLES - grouped)
+            most = SDRAM_REQUEST_FIFO - V - 4 - REQUEST_CYCLES - grouped
+            assert 0 <= most < SDRAM_REQUEST_FIFO, "the request FIFO must hold every offer in flight"
+            m.d.sync += credit.eq(~req_fifo.fill[most])          # level <= most
             with m.If(req_valid & ~req_fifo.w_rdy):
                 m.d.sync += req_lost.eq(1)
             m.d.comb += [req_fifo.w_en.eq(req_valid), req_fifo.w_data.eq(Cat(req_addr, req_tag)),
