@@ -42,6 +42,8 @@ LADDER = {
     "n40p_20_200": ("four pipelines of the default with its whole pool", dict(channels=40)),
     "n10_10_100": ("one pipeline at 100 MHz (10 channels at 10 MS/s, M = 10): the CI build",
                    dict(channels=10, sample_rate_mhz=10, clock_mhz=100, pool_words=16384)),
+    "s64_20_200": ("streams in SDRAM: the --sdram default, 64 channels at 20 MS/s on 200 MHz (M = 10, "
+                   "7 pipelines)", dict(pool="sdram")),
     "s32_20_200": ("streams in SDRAM: 32 channels at 20 MS/s on 200 MHz (M = 10, 4 pipelines)",
                    dict(channels=32, pool="sdram")),
     "s16_100_200": ("streams in SDRAM: 16 channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",

@@ -67,11 +67,12 @@ def delay_line_floorplan(rows, reserve, block, count):
     middle of each row (the common line's share of it) and ``count`` blocks
     of ``block`` neighbouring sites (one per pipeline's window), taken from
     the rows in turn, in a checkerboard of the rows' left and right halves
-    (row by row the first half alternates), spread evenly along the half. Without them the placer packed an SDRAM
-    build's logic into one corner of the device, between the few RAMs and the
-    SDRAM pins (docs/bitstream.md, "The SDRAM build's delay lines placed");
-    the pool's banks spread a block-RAM build the same way. ``None`` where
-    ``rows`` is ``None`` or the blocks do not fit."""
+    (row by row the first half alternates), spread evenly along the half.
+    Without them the placer packed an SDRAM build's logic into one corner of
+    the device, between the few RAMs and the SDRAM pins (docs/bitstream.md,
+    "The SDRAM build's delay lines placed"); the pool's banks spread a
+    block-RAM build the same way. ``None`` where ``rows`` is ``None`` or the
+    blocks do not fit."""
     if rows is None:
         return None
     reserved, halves = [], []

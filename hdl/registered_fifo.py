@@ -76,8 +76,10 @@ class RegisteredFIFO(wiring.Component):
         m.d.comb += [self.w_rdy.eq(~in_ring[D - 1]),
                      w_port.en.eq(do_write), w_port.addr.eq(produce), w_port.data.eq(self.w_data),
                      r_port.addr.eq(consume)]
+
         def advance(pointer):
             return pointer + 1 if D & (D - 1) == 0 else Mux(pointer == D - 1, 0, pointer + 1)
+
         with m.If(do_write):
             m.d.sync += produce.eq(advance(produce))
         with m.If(refill):
