@@ -292,7 +292,6 @@ def test_each_window_lies_in_a_block_of_its_own(channels, slots, banks, per_row)
             assert min(s) < 26 <= max(s), (r, s)
 
 
-
 @pytest.mark.parametrize("channels, slots", [(64, 10), (32, 10), (16, 2)])
 def test_an_sdram_build_places_its_delay_lines(channels, slots):
     """With the streams in SDRAM (no pool banks to place), the delay lines
@@ -315,13 +314,13 @@ def test_an_sdram_build_places_its_delay_lines(channels, slots):
         index = sorted(row.index(bel) for bel in common if bel in row)
         assert len(index) == 4 and index == list(range(index[0], index[0] + 4))
         assert 52 // 4 <= index[0] <= 3 * 52 // 4
-    halves = {}
+    windows = {}
     for path, bel in bels.items():
         if "window" in path:
-            halves.setdefault(int(re.search(r"pipe(\d+)", path).group(1)), []).append(bel)
-    assert sorted(halves) == list(range(P))
+            windows.setdefault(int(re.search(r"pipe(\d+)", path).group(1)), []).append(bel)
+    assert sorted(windows) == list(range(P))
     used = {}
-    for p, sites in halves.items():
+    for p, sites in windows.items():
         (row,) = {k for k, r in enumerate(rows) for bel in sites if bel in r}
         index = sorted(rows[row].index(bel) for bel in sites)
         assert index == list(range(index[0], index[0] + 4)), (p, index)
