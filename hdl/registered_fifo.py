@@ -45,10 +45,9 @@ class RegisteredFIFO(wiring.Component):
         A word is written in a clock with ``w_en`` and ``w_rdy``.
     r_rdy : Out(1), r_data : Out(width), r_en : In(1)
         The oldest word, from registers; taken in a clock with ``r_en``.
-    level : Out(range(depth + 2))
-        Words in the FIFO.
     fill : Out(depth + 1)
-        The level as a thermometer code: bit k is ``level > k``, a flip-flop.
+        The words in the FIFO as a thermometer code: bit k is 1 while it
+        holds more than k, each bit a flip-flop.
     """
 
     def __init__(self, width: int, depth: int):
@@ -60,7 +59,7 @@ class RegisteredFIFO(wiring.Component):
         super().__init__({
             "w_en": In(1), "w_data": In(width), "w_rdy": Out(1),
             "r_rdy": Out(1), "r_data": Out(width), "r_en": In(1),
-            "level": Out(range(depth + 2)), "fill": Out(depth + 1),
+            "fill": Out(depth + 1),
         })
 
     def elaborate(self, platform):
@@ -88,8 +87,4 @@ class RegisteredFIFO(wiring.Component):
             m.d.sync += self.r_rdy.eq(0)
         _thermometer_step(m, in_ring, do_write & ~refill, refill & ~do_write)
         _thermometer_step(m, self.fill, do_write & ~do_read, do_read & ~do_write)
-        with m.If(do_write & ~do_read):
-            m.d.sync += self.level.eq(self.level + 1)
-        with m.Elif(do_read & ~do_write):
-            m.d.sync += self.level.eq(self.level - 1)
         return m

@@ -1,7 +1,7 @@
 """RegisteredFIFO against Amaranth's SyncFIFOBuffered of one word more, clock
 for clock, in the Amaranth simulator: the same ready flags, the same words
 out and the same level, under random writes and reads that fill and empty
-it; its thermometer level equal to the binary one."""
+it (its level read from its thermometer code, which must be one)."""
 
 import random
 
@@ -35,11 +35,11 @@ def test_the_fifo_behaves_as_sync_fifo_buffered(depth, write_p, read_p):
                 ctx.set(q.w_en, w)
                 ctx.set(q.w_data, value)
                 ctx.set(q.r_en, r)
-            got = {k: ctx.get(getattr(dut, k)) for k in ("w_rdy", "r_rdy", "level")}
+            fill = [ctx.get(dut.fill) >> k & 1 for k in range(depth + 1)]
+            got = {"w_rdy": ctx.get(dut.w_rdy), "r_rdy": ctx.get(dut.r_rdy), "level": sum(fill)}
             want = {k: ctx.get(getattr(ref, k)) for k in ("w_rdy", "r_rdy", "level")}
             assert got == want, (clock, got, want)
-            fill = ctx.get(dut.fill)
-            assert [fill >> k & 1 for k in range(depth + 1)] == [int(got["level"] > k) for k in range(depth + 1)]
+            assert fill == [int(got["level"] > k) for k in range(depth + 1)]
             if got["r_rdy"]:
                 assert ctx.get(dut.r_data) == ctx.get(ref.r_data), clock
                 seen["taken"] += r
