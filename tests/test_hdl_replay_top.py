@@ -107,7 +107,7 @@ def test_random_against_model(channels, opts, valid, ready):
     check(dut, inits, xi, xq, valid=valid, ready=ready, name=f"N={channels} {opts} {valid} {ready}")
 
 
-@pytest.mark.parametrize("slots", [1, 2, 3, 10])
+@pytest.mark.parametrize("slots", [1, 2, 3, 8, 10])
 def test_an_output_held_back_fills_the_fifo_and_loses_no_sample(slots):
     """``o.ready`` one clock in 100: slower than the input at every M and rarer than
     the pipeline's latency, so the output FIFO fills and ``i.ready`` must hold the
@@ -123,7 +123,7 @@ def test_an_output_held_back_fills_the_fifo_and_loses_no_sample(slots):
     assert_same(f"M={slots}, output held back", xi, xq, hi, hq, mi, mq)
 
 
-@pytest.mark.parametrize("slots", [1, 2, 3, 10])
+@pytest.mark.parametrize("slots", [1, 2, 3, 8, 10])
 def test_an_input_every_period_is_taken_every_period(slots):
     """The board's ADC gives a sample every period and does not wait: with
     ``o.ready`` always high the block must take one input in every period,
