@@ -29,6 +29,8 @@ from rast.model.fixedpoint import ReplayContract
 LADDER = {
     "n64_20_200": ("default: 64 FIR channels at 20 MS/s on a 200 MHz fabric (M = 10, 7 pipelines), "
                    "81,920-word pool", dict()),
+    "n64_20_160": ("64 FIR channels at 20 MS/s on a 160 MHz fabric (M = 8, 8 pipelines): every block RAM, "
+                   "the 64-channel build to run on a board", dict(clock_mhz=160)),
     "n16_100_200": ("wide band: 16 FIR channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",
                     dict(channels=16, sample_rate_mhz=100, pool_words=32768)),
     "n20_20_200": ("two pipelines of the default (20 channels, M = 10), 16,384-word pool",
@@ -44,6 +46,8 @@ LADDER = {
                    dict(channels=10, sample_rate_mhz=10, clock_mhz=100, pool_words=16384)),
     "s64_20_200": ("streams in SDRAM: the --sdram default, 64 channels at 20 MS/s on 200 MHz (M = 10, "
                    "7 pipelines)", dict(pool="sdram")),
+    "s64_20_160": ("streams in SDRAM: 64 channels at 20 MS/s on a 160 MHz fabric (M = 8, 8 pipelines)",
+                   dict(pool="sdram", clock_mhz=160)),
     "s32_20_200": ("streams in SDRAM: 32 channels at 20 MS/s on 200 MHz (M = 10, 4 pipelines)",
                    dict(channels=32, pool="sdram")),
     "s16_100_200": ("streams in SDRAM: 16 channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",
