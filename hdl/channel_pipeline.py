@@ -426,26 +426,22 @@ class ChannelPipeline(wiring.Component):
         # every bit). The RAM part comes registered; V - 1 registers more.
         rl = self.regs[0].shape()
         vl = self.values.shape()
-        # With them, a command's parts of the forced switch (stage A's first
-        # decision), ANDed before the selection: (a forced switch whatever
-        # the state, one if a switch is pending); from the selected flags
-        # they were the first of four LUT levels into stage A's jstep (6.3
-        # ns at two pipelines).
+        # The command's decisions come in flip-flops of their own
+        # (channel_regs_layout), so that each selected bit is a multiplexer
+        # of register outputs.
         rsel = Signal(data.StructLayout({**dict(rl.members), **dict(vl.members)}), name="rsel")
-        fl = data.StructLayout({"regs": rl, "force_swap": 1, "force_pending": 1, "swap_req": 1})
-        flags = Signal(fl, name="rsel_flags")
-        m.d.comb += rsel.as_value().eq(Cat(flags.regs, _delay(m, self.values, V - 1, "rsel_values")))
-        with_force = [Cat(r, r.cmd_valid & ~r.cmd_enable & r.cmd_swap, r.cmd_valid & ~r.cmd_enable,
-                          r.cmd_valid & r.cmd_swap) for r in self.regs]
+        flags = Signal(rl, name="rsel_flags")
+        m.d.comb += rsel.as_value().eq(Cat(flags, _delay(m, self.values, V - 1, "rsel_values")))
+        slot_regs = list(self.regs)
         if M == 1:
-            m.d.sync += flags.eq(with_force[0])
+            m.d.sync += flags.eq(slot_regs[0])
         elif V == 1:
-            m.d.sync += flags.eq(Array(with_force)[rslot])
+            m.d.sync += flags.eq(Array(slot_regs)[rslot])
         else:
             groups = []
             for g in range(0, M, 4):
-                part = Signal(fl, name=f"rsel_g{g // 4}")
-                members = with_force[g:g + 4]
+                part = Signal(rl, name=f"rsel_g{g // 4}")
+                members = slot_regs[g:g + 4]
                 m.d.sync += part.eq(Array(members)[rslot[:2]] if len(members) > 1 else members[0])
                 groups.append(part)
             if len(groups) > 1:
@@ -500,7 +496,7 @@ class ChannelPipeline(wiring.Component):
         wrap = Signal(); wrap_sw = Signal(); switch = Signal(); mute_out = Signal()
         m.d.comb += [
             force.eq(flags.force_swap | (flags.force_pending & st.pending)),
-            req.eq(rg.cmd_valid & rg.cmd_swap & ~force),
+            req.eq(flags.swap_req & ~force),
             pend.eq(st.pending | req),
             mute_out.eq(st.muting | force),
             en.eq(step_v & ~mute_out),
