@@ -20,7 +20,7 @@ from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
 from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
                                 POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
-                                REGISTER_STAGING, WRITE_STAGING, take_interval, tree_levels, TREE_LEVEL_CYCLES, visit_cycles,
+                                REGISTER_STAGING, WRITE_STAGING, take_interval, tree_cycles, tree_operand_registers, visit_cycles,
                                 reset_slot)
 from ..model.regmap import register_map
 from ..model.powerup import ChannelInit, pool_contents
@@ -522,7 +522,7 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += [regs.underflow_set.eq(underflow_any), self.underflow.eq(regs.underflow)]
 
         # ---- the sum over the pipelines, saturation, the output FIFO --------------
-        assert ACCEPT_LAG + pipes[0].sum_cycles + TREE_LEVEL_CYCLES * tree_levels(P) + 2 == K
+        assert ACCEPT_LAG + pipes[0].sum_cycles + tree_cycles(P) + 2 == K
         level = [pl.sum for pl in pipes]
         SW = c.sum_width
         depth = 0
@@ -533,7 +533,7 @@ class WindFarmReplay(wiring.Component):
                 # pipelines may be far apart), then the sum
                 pair = []
                 for k, v in enumerate(level[j:j + 2]):
-                    for d in range(TREE_LEVEL_CYCLES - 1):
+                    for d in range(tree_operand_registers(P, depth)):
                         r = Signal.like(v, name=f"tree{depth}_{j // 2}_in{k}_d{d + 1}", reset_less=True)
                         m.d.sync += r.eq(v)
                         v = r

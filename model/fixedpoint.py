@@ -95,7 +95,7 @@ import math as _math
 __all__ += ["COMMON_LAG", "WINDOW_LAG", "BLOCK_LATENCY", "ACCEPT_LAG", "visit_cycles", "WORD_CYCLES",
             "CMULT_CYCLES", "GAIN_CYCLES", "MAC_RESULT_CYCLES", "POOL_FETCH_CYCLES", "REGISTER_STAGING",
             "WRITE_STAGING", "TAKE_SPACING", "take_interval", "reset_slot",
-            "tree_levels", "TREE_LEVEL_CYCLES", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
+            "tree_levels", "TREE_LEVEL_CYCLES", "tree_cycles", "tree_operand_registers", "mac_merge_cycles", "mac_visits", "engine_output_cycles", "board_latency"]
 __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "INTERP_FRAC_BITS", "INTERPOLATIONS", "FIR_PHASE_BITS", "FIR_PHASES", "FIR_TAPS",
             "FIR_LEAD", "FIR_KAISER_BETA", "FIR_CUTOFF", "FIR_COEF_WIDTH", "FIR_COEF_FRAC", "FIR_ACC_WIDTH", "FIR_MAX_INCREMENT",
@@ -443,6 +443,25 @@ def tree_levels(pipelines: int) -> int:
 TREE_LEVEL_CYCLES = 2
 
 
+def tree_cycles(pipelines: int) -> int:
+    """Clocks of the adder tree over the pipelines: TREE_LEVEL_CYCLES per
+    level, and from three levels (five pipelines or more) one more on the
+    last level, its operands in a second register each: that level adds the
+    sums of the two halves of the pipelines, which sit on the two halves of
+    the die (one route from the left half's operand register to the adder,
+    3.95 ns of 6.28, was the only late path of the 64-channel build at 160
+    MHz, seed 3)."""
+    levels = tree_levels(pipelines)
+    return TREE_LEVEL_CYCLES * levels + (levels >= 3)
+
+
+def tree_operand_registers(pipelines: int, level: int) -> int:
+    """Registers each operand of tree level ``level`` (0 the first) passes
+    on its way to the adder (``tree_cycles``)."""
+    last = level == tree_levels(pipelines) - 1
+    return TREE_LEVEL_CYCLES - 1 + (last and level >= 2)
+
+
 def mac_merge_cycles(slots: int) -> int:
     """Clocks from a tap's visit to the clock in which its U value enters the
     channel's state: MAC_RESULT_CYCLES, rounded up to the ring's update
@@ -465,7 +484,7 @@ def engine_output_cycles(slots: int, pipelines: int, cmult_form: str = "4mult") 
     edge): the pipelines' period start, the last slot's visit, word, complex
     product, gain, slot accumulator, adder tree, saturation flags and clip."""
     return (ACCEPT_LAG + (slots - 1) + visit_cycles(slots) + WORD_CYCLES + CMULT_CYCLES[cmult_form]
-            + GAIN_CYCLES + 1 + TREE_LEVEL_CYCLES * tree_levels(pipelines) + 2)
+            + GAIN_CYCLES + 1 + tree_cycles(pipelines) + 2)
 
 
 CMULT_FORMS = ("4mult", "3mult")

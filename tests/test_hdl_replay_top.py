@@ -65,9 +65,10 @@ def test_top_parameters():
         assert WindFarmReplay(64, slots=10, cmult_form="3mult").latency == 2
         # in clocks: the accept's two registers, the last slot, its visit, word
         # (7), product (5; 6 in the 3-multiplier form), gain (5), slot sum, tree
-        # (log2 P levels of 2), saturation (2)
-        assert WindFarmReplay(64, slots=10).contract.output_cycles == 2 + 9 + 2 + 7 + 5 + 5 + 1 + 6 + 2
-        assert WindFarmReplay(5, cmult_form="3mult").contract.output_cycles == 2 + 0 + 1 + 7 + 6 + 5 + 1 + 6 + 2
+        # (log2 P levels of 2, from three levels one more), saturation (2)
+        assert WindFarmReplay(64, slots=10).contract.output_cycles == 2 + 9 + 2 + 7 + 5 + 5 + 1 + 7 + 2
+        assert WindFarmReplay(5, cmult_form="3mult").contract.output_cycles == 2 + 0 + 1 + 7 + 6 + 5 + 1 + 7 + 2
+        assert WindFarmReplay(4).contract.output_cycles == 2 + 0 + 1 + 7 + 5 + 5 + 1 + 4 + 2
     with pytest.raises(ValueError, match=r"^Initial common delay must be an integer in \[0, 4094\], not 4095$"):
         WindFarmReplay(2, init_common_delay=4095)
 
