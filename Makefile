@@ -36,7 +36,7 @@ bench-cosim: $(STAMP)
 bench-bitstream: $(STAMP)
 	$(BIN)/python bench/bench_bitstream.py $(BENCH_ARGS)
 
-# ULX3S-85F, 64 channels, 20 MS/s on a 200 MHz fabric by default; BUILD_ARGS="--clock-mhz 160" for the same 64 channels at M = 8, met at nextpnr seeds 1 and 2 (docs/bitstream.md).
+# ULX3S-85F, 64 channels, 20 MS/s on a 200 MHz fabric by default; BUILD_ARGS="--clock-mhz 160 --seed 3" for the same 64 channels at M = 8, met at that nextpnr seed (docs/bitstream.md).
 bitstream: $(STAMP)
 	$(BIN)/rast build --out $(BITSTREAM_OUT) $(BUILD_ARGS)
 
