@@ -432,16 +432,15 @@ class ChannelPipeline(wiring.Component):
         rsel = Signal(data.StructLayout({**dict(rl.members), **dict(vl.members)}), name="rsel")
         flags = Signal(rl, name="rsel_flags")
         m.d.comb += rsel.as_value().eq(Cat(flags, _delay(m, self.values, V - 1, "rsel_values")))
-        slot_regs = list(self.regs)
         if M == 1:
-            m.d.sync += flags.eq(slot_regs[0])
+            m.d.sync += flags.eq(self.regs[0])
         elif V == 1:
-            m.d.sync += flags.eq(Array(slot_regs)[rslot])
+            m.d.sync += flags.eq(Array(self.regs)[rslot])
         else:
             groups = []
             for g in range(0, M, 4):
                 part = Signal(rl, name=f"rsel_g{g // 4}")
-                members = slot_regs[g:g + 4]
+                members = list(self.regs)[g:g + 4]
                 m.d.sync += part.eq(Array(members)[rslot[:2]] if len(members) > 1 else members[0])
                 groups.append(part)
             if len(groups) > 1:

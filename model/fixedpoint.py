@@ -443,23 +443,22 @@ def tree_levels(pipelines: int) -> int:
 TREE_LEVEL_CYCLES = 2
 
 
-def tree_cycles(pipelines: int) -> int:
-    """Clocks of the adder tree over the pipelines: TREE_LEVEL_CYCLES per
-    level, and from three levels (five pipelines or more) one more on the
-    last level, its operands in a second register each: that level adds the
-    sums of the two halves of the pipelines, which sit on the two halves of
-    the die (one route from the left half's operand register to the adder,
-    3.95 ns of 6.28, was the only late path of the 64-channel build at 160
-    MHz, seed 3)."""
-    levels = tree_levels(pipelines)
-    return TREE_LEVEL_CYCLES * levels + (levels >= 3)
-
-
 def tree_operand_registers(pipelines: int, level: int) -> int:
     """Registers each operand of tree level ``level`` (0 the first) passes
-    on its way to the adder (``tree_cycles``)."""
-    last = level == tree_levels(pipelines) - 1
-    return TREE_LEVEL_CYCLES - 1 + (last and level >= 2)
+    on its way to the adder: TREE_LEVEL_CYCLES - 1, and from three levels
+    (five pipelines or more) one more on the last level. That level adds
+    the sums of the two halves of the pipelines, which sit on the two
+    halves of the die (one route from the left half's operand register to
+    the adder, 3.95 ns of 6.28, was the only late path of the 64-channel
+    build at 160 MHz, seed 3)."""
+    levels = tree_levels(pipelines)
+    return TREE_LEVEL_CYCLES - 1 + (level == levels - 1 and levels >= 3)
+
+
+def tree_cycles(pipelines: int) -> int:
+    """Clocks of the adder tree over the pipelines: per level its operand
+    registers (``tree_operand_registers``), then the sum."""
+    return sum(tree_operand_registers(pipelines, k) + 1 for k in range(tree_levels(pipelines)))
 
 
 def mac_merge_cycles(slots: int) -> int:
