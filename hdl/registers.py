@@ -616,10 +616,9 @@ class RegisterFile(wiring.Component):
             # engine consumes it when it reads the channel (cmd_ack).
             swap = lnd[ctrl.field("swap").lsb]
             enable = lnd[ctrl.field("enable").lsb]
-            accepted = swap & match_of[l]
             with m.If(strobe[ctrl.addr]):
-                m.d.sync += [rg.force_swap.eq(~enable & accepted), rg.force_pending.eq(~enable),
-                             rg.swap_req.eq(accepted)]
+                m.d.sync += [rg.force_swap.eq(~enable & swap & match_of[l]), rg.force_pending.eq(~enable),
+                             rg.swap_req.eq(swap & match_of[l])]
                 with m.If(swap):
                     m.d.sync += rejected[l].eq(~match_of[l])
             with m.Elif(self.cmd_ack[l]):
