@@ -11,6 +11,7 @@ from .iq import IQ
 from .cmult import ComplexMultiplier
 from .ecp5_primitives import RegisteredMultiplier, kept_register, kept_lut
 from .delay_line import DelayLine
+from .arrival_check import ArrivalCheck
 from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
                                 FIR_COEF_FRAC, FIR_ACC_WIDTH, FIR_REFILL_SAMPLES, CACHE_WORDS,
@@ -238,8 +239,8 @@ class ChannelPipeline(wiring.Component):
         The slot accumulator: the period's sum after the last slot.
     underflow : Out(1)
         SDRAM pool only (0 otherwise): a read that matters found its cache
-        word not yet arrived, three clocks before (the check is made a clock
-        after the read, registered, then ORed with the others).
+        word not yet arrived, ``ArrivalCheck.LATENCY`` clocks after the read's
+        address register.
     """
 
     def __init__(self, contract, index, slot_inits, regs_layout, values_layout, *, window_sites=None,
@@ -813,46 +814,17 @@ class ChannelPipeline(wiring.Component):
                 ports.append(mem.read_port(domain="comb"))
             caches.append(ports)
 
-        # ---- arrival check (SDRAM pool): a bit per cache position, cleared
-        # when its fetch is granted, set when the word arrives. A read that
-        # matters (a playing channel's step, the FIR's MAC) of a position
-        # whose word has not arrived raises ``underflow`` (for a clock; the
-        # register file keeps it in STATUS): a fetch later than the
-        # contract's bound. The block-RAM pool's fixed latency
-        # needs no check.
+        # ---- arrival check (SDRAM pool): a read that matters (a playing
+        # channel's step, the FIR's MAC) of a cache position whose word has
+        # not arrived raises ``underflow`` (for a clock; the register file
+        # keeps it in STATUS): a fetch later than the contract's bound
+        # (ArrivalCheck, made below once every read is known). The block-RAM
+        # pool's fixed latency needs no check.
         arrival = c.pool == "sdram"
         checks = []
         if arrival:
-            arrived = Signal(depth, name="arrived")
             playing = Signal(name="playing")
             m.d.comb += playing.eq(rg.enable & present_v)
-            # A grant clears its position's bit two clocks later and a fill
-            # sets its bit a clock later, each from its address decoded into
-            # two one-hot registers (upper and lower bits), so that a bit's
-            # update is one LUT of five registers: the grant's logic into
-            # the bits' decode was 6.4 ns at a 200 MHz SDRAM build, and the
-            # decode of the registered addresses into 256 bits 6.9 ns at
-            # M = 10. The checks below look as much later, so they see the
-            # same bits. (A word arrives dozens of clocks after its grant,
-            # never in between.)
-            abits = (depth - 1).bit_length()
-            lo_bits = (abits + 1) // 2
-
-            def one_hot(valid, addr, name):
-                lo = Signal(1 << lo_bits, name=f"{name}_lo", reset_less=True)
-                hi = Signal(1 << (abits - lo_bits), name=f"{name}_hi")
-                m.d.sync += [lo.eq(1 << addr[:lo_bits]), hi.eq(Mux(valid, 1 << addr[lo_bits:abits], 0))]
-                return lo, hi
-            grant_q = Signal(name="arrival_grant")
-            grant_pos = Signal(abits, name="arrival_pos")
-            m.d.sync += [grant_q.eq(a["grant"]),
-                         grant_pos.eq(Cat(st.f_pos, vslot[:SB]) if M > 1 else st.f_pos)]
-            clear_lo, clear_hi = one_hot(grant_q, grant_pos, "arrival_clear")
-            set_lo, set_hi = one_hot(self.fill_en, fill_addr, "arrival_set")
-            for k in range(depth):
-                lo, hi = k & ((1 << lo_bits) - 1), k >> lo_bits
-                m.d.sync += arrived[k].eq((set_hi[hi] & set_lo[lo])
-                                          | (arrived[k] & ~(clear_hi[hi] & clear_lo[lo])))
 
         def cache_read(ports, pos, name, matters=None, clocks=1):
             """The cache word at ``pos`` of the visiting slot, the address
@@ -969,27 +941,13 @@ class ChannelPipeline(wiring.Component):
         if fir:
             self._elaborate_mac(m, platform, st, caches[0], cache_read, mac_put, mac_val)
         if checks:
-            # each check two clocks after its read (as the bits' updates,
-            # above), its bit selected in registered levels of two address
-            # bits each, a 4:1 multiplexer a bit (one slice), lowest bits
-            # first (the whole selection in one clock was 8.8 ns at M = 10;
-            # in two levels, 16:1 each, 5.2-5.5 ns), each check's result into
-            # a register of its own, then their OR
-            late = []
+            m.submodules.arrival = check = ArrivalCheck(depth, len(checks))
+            m.d.comb += [check.grant.eq(a["grant"]),
+                         check.grant_pos.eq(Cat(st.f_pos, vslot[:SB]) if M > 1 else st.f_pos),
+                         check.fill_en.eq(self.fill_en), check.fill_pos.eq(fill_addr),
+                         self.underflow.eq(check.underflow)]
             for k, (addr, chk) in enumerate(checks):
-                at = _delay(m, addr, 2, f"check{k}_addr", data=True)
-                bits, level = arrived, 0
-                while len(bits) > 1:
-                    sel = _delay(m, at[2 * level:min(2 * level + 2, abits)], level, f"check{k}_sel{level}", data=True)
-                    left = Signal(-(-len(bits) // 4), name=f"check{k}_level{level}", reset_less=True)
-                    for g in range(len(left)):
-                        four = bits[4 * g:4 * g + 4]
-                        m.d.sync += left[g].eq(Cat(four, Const(0, 4 - len(four))).bit_select(sel, 1))
-                    bits, level = left, level + 1
-                bit = Signal(name=f"late{k}")
-                m.d.sync += bit.eq(_delay(m, chk, 2 + level, f"check{k}") & ~bits[0])
-                late.append(bit)
-            m.d.sync += self.underflow.eq(Cat(*late).any())
+                m.d.comb += [check.read_pos[k].eq(addr), check.read_matters[k].eq(chk)]
 
         # ---- the window: written once per step, read at each slot's tap ---------
         # A slot's tap is read WORD_CYCLES - latency - 1 clocks after its visit
