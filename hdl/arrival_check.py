@@ -26,16 +26,9 @@ from amaranth.hdl import Module, Signal, Mux, Cat, Const
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from .register_chain import delayed
+
 __all__ = ["ArrivalCheck"]
-
-
-def _registered(m, sig, n, name):
-    """``sig`` through ``n`` registers (data: not reset)."""
-    for k in range(n):
-        nxt = Signal.like(sig, name=f"{name}_d{k + 1}", reset_less=True)
-        m.d.sync += nxt.eq(sig)
-        sig = nxt
-    return sig
 
 
 class ArrivalCheck(wiring.Component):
@@ -111,10 +104,10 @@ class ArrivalCheck(wiring.Component):
 
         late = []
         for k in range(self.reads):
-            at = _registered(m, self.read_pos[k], 2, f"read{k}_pos")
+            at = delayed(m, self.read_pos[k], 2, f"read{k}_pos", data=True)
             bits = arrived
             for level in range(self.levels):
-                sel = _registered(m, at[2 * level:min(2 * level + 2, abits)], level, f"read{k}_sel{level}")
+                sel = delayed(m, at[2 * level:min(2 * level + 2, abits)], level, f"read{k}_sel{level}", data=True)
                 left = Signal(-(-len(bits) // 4), name=f"read{k}_level{level}", reset_less=True)
                 for g in range(len(left)):
                     four = bits[4 * g:4 * g + 4]
@@ -122,10 +115,7 @@ class ArrivalCheck(wiring.Component):
                 bits = left
             matters = Signal(name=f"read{k}_matters")
             m.d.sync += matters.eq(self.read_matters[k])
-            for d in range(1 + self.levels):
-                nxt = Signal(name=f"read{k}_matters_d{d + 1}")
-                m.d.sync += nxt.eq(matters)
-                matters = nxt
+            matters = delayed(m, matters, 1 + self.levels, f"read{k}_matters")
             bit = Signal(name=f"late{k}")
             m.d.sync += bit.eq(matters & ~bits[0])
             late.append(bit)

@@ -12,6 +12,7 @@ from .cmult import ComplexMultiplier
 from .ecp5_primitives import RegisteredMultiplier, kept_register, kept_lut
 from .delay_line import DelayLine
 from .arrival_check import ArrivalCheck
+from .register_chain import delayed
 from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
                                 INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
                                 FIR_COEF_FRAC, FIR_ACC_WIDTH, FIR_REFILL_SAMPLES, CACHE_WORDS,
@@ -59,16 +60,6 @@ class SlotInit:
 # The control (slot counters, flags, the per-slot state, the mute and valid
 # chains) is reset. The FPGA then routes no reset to them, and Verilator runs
 # about 4 % fewer instructions per clock at M = 1 (docs/cosim_speed.md).
-
-
-def _delay(m, sig, n, name, *, data=False):
-    """``sig`` delayed by ``n`` clocks (a chain of registers); ``data``: a
-    chain of data registers, not reset (above)."""
-    for k in range(n):
-        nxt = Signal.like(sig, name=f"{name}_d{k + 1}", reset_less=data)
-        m.d.sync += nxt.eq(sig)
-        sig = nxt
-    return sig
 
 
 #: Address bits of the FIR coefficient ROM's second level (2**k first-level
@@ -154,10 +145,10 @@ def _select_registered(m, words, sel, name):
     clock was the FIR's latest path at 64 channels (6.1 ns)."""
     assert len(words) <= 16
     if len(words) <= 4:
-        return _delay(m, Array(words)[sel] if len(words) > 1 else words[0], 1, name, data=True)
-    groups = [_delay(m, Array(words[g:g + 4])[sel[:2]], 1, f"{name}_group{g // 4}", data=True)
+        return delayed(m, Array(words)[sel] if len(words) > 1 else words[0], 1, name, data=True)
+    groups = [delayed(m, Array(words[g:g + 4])[sel[:2]], 1, f"{name}_group{g // 4}", data=True)
               for g in range(0, len(words), 4)]
-    return Array(groups)[_delay(m, sel[2:], 1, f"{name}_gsel", data=True)]
+    return Array(groups)[delayed(m, sel[2:], 1, f"{name}_gsel", data=True)]
 
 
 def accept_clock(slots: int) -> int:
@@ -397,7 +388,7 @@ class ChannelPipeline(wiring.Component):
         rslot = Signal(range(max(2, M)), init=M - 1, name="rslot")
         if M > 1:
             m.d.sync += rslot.eq(Mux(rslot == M - 1, 0, rslot + 1))
-        vslot = _delay(m, rslot, V, "vslot")
+        vslot = delayed(m, rslot, V, "vslot")
         # rslot == s, one-hot in registers of their own: a slot's command
         # acknowledge and the step flag's load (from the compare, each was a
         # latest path of the 64-channel build, into the register file's
@@ -417,9 +408,9 @@ class ChannelPipeline(wiring.Component):
             m.d.sync += [step_h.eq(self.accept), nidx_h.eq(count)]
             with m.If(self.accept):
                 m.d.sync += count.eq(count + 1)
-        step_v = _delay(m, step_h, V - 1 - A, "step_v")
-        nidx_v = _delay(m, nidx_h, V - 1 - A, "nidx_v")
-        offer = _delay(m, self.offer, V - 1, "offer")
+        step_v = delayed(m, step_h, V - 1 - A, "step_v")
+        nidx_v = delayed(m, nidx_h, V - 1 - A, "nidx_v")
+        offer = delayed(m, self.offer, V - 1, "offer")
 
         # ---- register read: slot rslot's registers, registered ---------------
         # The flip-flop part: V = 1, one multiplexer; V = 2, groups of 4 slots
@@ -432,7 +423,7 @@ class ChannelPipeline(wiring.Component):
         # of register outputs.
         rsel = Signal(data.StructLayout({**dict(rl.members), **dict(vl.members)}), name="rsel")
         flags = Signal(rl, name="rsel_flags")
-        m.d.comb += rsel.as_value().eq(Cat(flags, _delay(m, self.values, V - 1, "rsel_values")))
+        m.d.comb += rsel.as_value().eq(Cat(flags, delayed(m, self.values, V - 1, "rsel_values")))
         if M == 1:
             m.d.sync += flags.eq(self.regs[0])
         elif V == 1:
@@ -445,7 +436,7 @@ class ChannelPipeline(wiring.Component):
                 m.d.sync += part.eq(Array(members)[rslot[:2]] if len(members) > 1 else members[0])
                 groups.append(part)
             if len(groups) > 1:
-                m.d.sync += flags.eq(Array(groups)[_delay(m, rslot[2:], 1, "rslot_hi")])
+                m.d.sync += flags.eq(Array(groups)[delayed(m, rslot[2:], 1, "rslot_hi")])
             else:
                 m.d.sync += flags.eq(groups[0])
         for s in range(M):
@@ -551,7 +542,7 @@ class ChannelPipeline(wiring.Component):
         assert not back or c.min_stream_length > back, "a FIR build's shortest stream must exceed FIR_LEAD - 1"
         new_stream = {"n_len_m1": lambda n: n - 1, "n_last": lambda n: n == 1,
                       "n_fstart": restart_index if back else (lambda n: 0)}
-        length_early = _delay(m, self.values, V - 2, "rsel_early").length if V >= 2 else None
+        length_early = delayed(m, self.values, V - 2, "rsel_early").length if V >= 2 else None
         for k, fn in new_stream.items():
             if V >= 2:
                 a[k] = Signal(ML.members[k], name=f"rsel_{k}")
@@ -772,8 +763,8 @@ class ChannelPipeline(wiring.Component):
         # slot's mirror was 6.3-6.4 ns at 64 channels).
         done = Signal(2, name="mirror_update")
         m.d.comb += done.eq(Cat(nxt.pending, nxt.bank))
-        done = _delay(m, done, MIRROR_LAG, "mirror_update")
-        bslot = _delay(m, vslot, self.update_stage + MIRROR_LAG, "bslot")
+        done = delayed(m, done, MIRROR_LAG, "mirror_update")
+        bslot = delayed(m, vslot, self.update_stage + MIRROR_LAG, "bslot")
         for s in range(M):
             with m.If(bslot == s):
                 m.d.sync += [self.pending[s].eq(done[0]), self.bank[s].eq(done[1])]
@@ -854,9 +845,9 @@ class ChannelPipeline(wiring.Component):
             words = [port.data for port in ports]
             bank = addr[in_bank:]
             if clocks >= 2:
-                words = [_delay(m, w, 1, f"{name}_bank{k}", data=True) for k, w in enumerate(words)]
+                words = [delayed(m, w, 1, f"{name}_bank{k}", data=True) for k, w in enumerate(words)]
                 if len(words) > 1:
-                    bank = _delay(m, bank, 1, f"{name}_bank", data=True)
+                    bank = delayed(m, bank, 1, f"{name}_bank", data=True)
             if clocks == 3:
                 m.d.sync += word.eq(_select_registered(m, words, bank, f"{name}_sel"))
             else:
@@ -872,20 +863,20 @@ class ChannelPipeline(wiring.Component):
         # address and word (hold, linear), or the FIR's U values waiting beside.
         f_op = st.frac[F - PB - INTERP_FRAC_BITS:F - PB] if fir else st.frac[F - INTERP_FRAC_BITS:]
         if fir:
-            a2 = _delay(m, st.u0, 2, "word_a", data=True)
-            b2 = _delay(m, st.u1, 2, "word_b", data=True)
+            a2 = delayed(m, st.u0, 2, "word_a", data=True)
+            b2 = delayed(m, st.u1, 2, "word_b", data=True)
         else:
             step_read = step_v & ~mute_out
             a2 = cache_read(caches[0], st.cpos, "word_a", step_read)
             b2 = cache_read(caches[1], st.cpos + 1, "word_b", step_read) if interp == "linear" else a2
-        f2 = _delay(m, f_op, 2, "word_f", data=True)
+        f2 = delayed(m, f_op, 2, "word_f", data=True)
         # A muted word is 0: the registers its last stage adds cleared (their
         # synchronous resets), so that the sum goes straight into the
         # operand copies (a multiplexer after it was among a 16-channel
         # build's late paths, 6.2 ns).
         # (the product's: its fraction operand, three clocks earlier)
-        mute_early = _delay(m, mute_out, WORD_CYCLES - 5, "word_mute_early")
-        mute = _delay(m, mute_early, 3, "word_mute")        # a clock before the word's last registers
+        mute_early = delayed(m, mute_out, WORD_CYCLES - 5, "word_mute_early")
+        mute = delayed(m, mute_early, 3, "word_mute")        # a clock before the word's last registers
 
         def last_register(value, name):
             reg = Signal.like(value, name=name, reset_less=True)
@@ -900,7 +891,7 @@ class ChannelPipeline(wiring.Component):
         word2 = Signal(IQ(STREAM_WIDTH), name="word2")
         if interp == "hold":
             # the word itself, as late as the interpolated one would be
-            m.d.comb += word.eq(last_register(_delay(m, a2, WORD_CYCLES - 4, "word_hold", data=True), "word_hold"))
+            m.d.comb += word.eq(last_register(delayed(m, a2, WORD_CYCLES - 4, "word_hold", data=True), "word_hold"))
             m.d.comb += word2.eq(word)
         else:
             # the fraction operand, 0 for a muted word: its product is then
@@ -918,13 +909,13 @@ class ChannelPipeline(wiring.Component):
                 m.d.comb += [mul.en.eq(1), mul.a.eq(diff), mul.b.eq(f3)]
                 # the product again in fabric, next to the adder (0 already
                 # for a muted word)
-                prod = _delay(m, mul.o, 1, f"word_prod_{part}", data=True)
+                prod = delayed(m, mul.o, 1, f"word_prod_{part}", data=True)
                 # (a*2**16 + 2**15 + p) >> 16 = a + (p >> 16) + p[15]: the sum
                 # and the rounding one adder of a's width, p[15] its carry-in
                 # (a low bit beside a, 1 on the other side, shifted out); the
                 # whole 33-bit sum was the carry chain into the operand copies,
                 # 6.2 ns at 16 channels. A muted word: (0 + 1) >> 1 = 0.
-                a5 = _delay(m, getattr(a2, part), WORD_CYCLES - 4, f"word_a6_{part}", data=True)
+                a5 = delayed(m, getattr(a2, part), WORD_CYCLES - 4, f"word_a6_{part}", data=True)
                 a6 = last_register(a5, f"word_a6_{part}")
                 # word2's: the product and a again, kept apart from word's
                 # (equal registers would be one to Yosys, and so the adders)
@@ -974,7 +965,7 @@ class ChannelPipeline(wiring.Component):
         assert win.depth == W and win.latency == DelayLine.LATENCY + 1
         read_at = WORD_CYCLES - win.latency - 1
         write_at = self.window_write_cycles(M)
-        wen = _delay(m, astart & self.accept, write_at - 1 - A, "win_wen")
+        wen = delayed(m, astart & self.accept, write_at - 1 - A, "win_wen")
         # c[n] through registers of the pipeline's own (kept): every pipeline
         # delays the same common-line word, so plain registers were one chain
         # to Yosys, feeding all the windows' write registers across the device
@@ -982,10 +973,10 @@ class ChannelPipeline(wiring.Component):
         wdata = self.win_data
         for k in range(self.win_data_room(M) - self._win_data_lag):
             wdata = kept_register(m, platform, wdata, f"win_wdata_d{k + 1}")
-        windex = _delay(m, nidx_h, write_at - 2 - A, "win_windex", data=True)
+        windex = delayed(m, nidx_h, write_at - 2 - A, "win_windex", data=True)
         m.d.comb += [win.w_en.eq(wen), win.w_index.eq(windex), win.w_data.eq(wdata),
-                     win.r_index.eq(_delay(m, nidx_v, read_at, "win_rindex", data=True)),
-                     win.r_delay.eq(_delay(m, rg.tap, read_at, "win_rdelay", data=True))]
+                     win.r_index.eq(delayed(m, nidx_v, read_at, "win_rindex", data=True)),
+                     win.r_delay.eq(delayed(m, rg.tap, read_at, "win_rdelay", data=True))]
 
         # ---- complex product, gain, slot accumulator -----------------------------
         # The tap's sample and the word into the multiplier's operand
@@ -996,7 +987,7 @@ class ChannelPipeline(wiring.Component):
         geff = Signal(rg.gain.shape(), name="geff")
         m.d.comb += geff.eq(Mux(rg.enable, rg.gain, 0))
         # (its last two registers the copies below)
-        g = _delay(m, geff, WORD_CYCLES - 2 + cm.latency, "gain", data=True)
+        g = delayed(m, geff, WORD_CYCLES - 2 + cm.latency, "gain", data=True)
         q = Signal(IQ(SCALED_WIDTH), name="q", reset_less=True)
         q_sum = {}          # a kept copy of q for the period sum's adder (below)
         for part in ("re", "im"):
@@ -1011,9 +1002,9 @@ class ChannelPipeline(wiring.Component):
             # 4.41 of it that route)
             gain_near = kept_register(m, platform, kept_register(m, platform, g, f"gain_far_{part}"),
                                       f"gain_{part}")
-            m.d.comb += [mul.en.eq(1), mul.a.eq(_delay(m, getattr(cm.o, part), 1, f"gain_a_{part}", data=True)),
+            m.d.comb += [mul.en.eq(1), mul.a.eq(delayed(m, getattr(cm.o, part), 1, f"gain_a_{part}", data=True)),
                          mul.b.eq(gain_near)]
-            prod = _delay(m, mul.o, 1, f"gain_prod_{part}", data=True)      # in fabric, next to the adder
+            prod = delayed(m, mul.o, 1, f"gain_prod_{part}", data=True)      # in fabric, next to the adder
             rounded = Signal(signed(SCALED_WIDTH), name=f"q_next_{part}")
             m.d.comb += rounded.eq((prod + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT)
             m.d.sync += getattr(q, part).eq(rounded)
@@ -1026,7 +1017,7 @@ class ChannelPipeline(wiring.Component):
         # slot's q or the sum) was among the 64-channel build's late paths
         # (5.9 ns). ``sum`` holds a period's sum in the clock of the next
         # period's first q and M - 1 clocks after.
-        q_slot_ahead = _delay(m, vslot, WORD_CYCLES - 1 + cm.latency + GAIN_CYCLES - 2, "qslot")
+        q_slot_ahead = delayed(m, vslot, WORD_CYCLES - 1 + cm.latency + GAIN_CYCLES - 2, "qslot")
         period_ends = Signal(name="period_ends")
         m.d.sync += period_ends.eq(q_slot_ahead == 0)
         # The period's sum from an adder of its own, beside ``sum``'s registers
@@ -1070,7 +1061,7 @@ class ChannelPipeline(wiring.Component):
         addr_bits = TB + PB
         low_bits = addr_bits - COEF_ROM_SPLIT_BITS
         full = Cat(st.tap, st.cphase)
-        rom_high = _delay(m, full[low_bits:], 2, "mac_rom_high", data=True)   # beside the ROMs' words
+        rom_high = delayed(m, full[low_bits:], 2, "mac_rom_high", data=True)   # beside the ROMs' words
         parts = []
         for k in range(1 << COEF_ROM_SPLIT_BITS):
             rom = Memory(shape=signed(FIR_COEF_WIDTH), depth=1 << low_bits,
@@ -1095,9 +1086,9 @@ class ChannelPipeline(wiring.Component):
         f0 = Signal(flags, name="mac_f0")
         m.d.comb += [f0.valid.eq(st.issuing), f0.first.eq(st.tap == 0), f0.last.eq(st.tap_last),
                      f0.dest.eq(st.dest)]
-        fmul = _delay(m, f0, 7, "mac_f")                     # with the multiplier's output, again
-        fprod = _delay(m, fmul, 1, "mac_fp")                 # with the product in fabric
-        fhigh = _delay(m, fprod, 1, "mac_fh")               # with the upper half's sum
+        fmul = delayed(m, f0, 7, "mac_f")                     # with the multiplier's output, again
+        fprod = delayed(m, fmul, 1, "mac_fp")                 # with the product in fabric
+        fhigh = delayed(m, fprod, 1, "mac_fh")               # with the upper half's sum
         # with the result: the U value a finished job writes, one-hot, from
         # registers (a job's last tap's destination decoded into stage B's
         # merge was late at 16 channels)
@@ -1114,7 +1105,7 @@ class ChannelPipeline(wiring.Component):
             # the accumulator. The multiplier's output straight into that
             # register was the 16-channel build's worst path: one route of
             # 5.1 ns from a multiplier placed 74 tiles away.
-            mul_out = _delay(m, mul.o, 1, f"fir_mul_out_{part}", data=True)
+            mul_out = delayed(m, mul.o, 1, f"fir_mul_out_{part}", data=True)
             prod = Signal(signed(FIR_ACC_WIDTH), name=f"fir_prod_{part}", reset_less=True)
             m.d.sync += prod.eq(_cleared(mul_out, ~fmul.valid))
             # One accumulator per slot: this slot's, updated, then round the
@@ -1140,10 +1131,10 @@ class ChannelPipeline(wiring.Component):
             carry = Signal(name=f"fir_carry_{part}", reset_less=True)
             m.d.comb += sum_lo.eq(prev_lo + prod[:ACC_LOW_BITS])
             m.d.sync += [acc_lo.eq(sum_lo), carry.eq(sum_lo[-1])]
-            prod_hi = _delay(m, prod[ACC_LOW_BITS:], 1, f"fir_prod_hi_{part}", data=True)
+            prod_hi = delayed(m, prod[ACC_LOW_BITS:], 1, f"fir_prod_hi_{part}", data=True)
             m.d.sync += acc_hi.eq(prev_hi + prod_hi + carry)
             acc = Signal(signed(FIR_ACC_WIDTH), name=f"fir_acc_{part}")
-            m.d.comb += acc.eq(Cat(_delay(m, acc_lo, 1, f"fir_acc_lo_{part}", data=True), acc_hi))
+            m.d.comb += acc.eq(Cat(delayed(m, acc_lo, 1, f"fir_acc_lo_{part}", data=True), acc_hi))
             rounded = Signal(signed(FIR_ACC_WIDTH - FIR_COEF_FRAC + 1), name=f"fir_rnd_{part}", reset_less=True)
             half = 1 << (FIR_COEF_FRAC - 1)
             m.d.sync += rounded.eq((acc + half) >> FIR_COEF_FRAC)
@@ -1169,5 +1160,5 @@ class ChannelPipeline(wiring.Component):
         # output again, product, the accumulator's two halves, round, saturate
         assert 1 + 3 + 2 + 1 + 1 + 1 + 1 + 1 + 1 == MAC_RESULT_CYCLES
         pad = mac_merge_cycles(M) - MAC_RESULT_CYCLES
-        res_d = _delay(m, res, pad, "mac_res", data=True)
-        m.d.comb += [mac_put.eq(_delay(m, put0, 2 + pad, "mac_put")), mac_val.eq(res_d)]
+        res_d = delayed(m, res, pad, "mac_res", data=True)
+        m.d.comb += [mac_put.eq(delayed(m, put0, 2 + pad, "mac_put")), mac_val.eq(res_d)]

@@ -39,7 +39,7 @@ def test_underflow_says_which_reads_missed_their_word(positions, reads, seed):
         rng = random.Random(seed)
         token = 0
         latest = {}          # position -> token of its latest grant (made in an earlier clock)
-        outstanding = {}     # position -> (fill clock, token) of a granted fetch not yet written
+        outstanding = {}     # position -> token of a granted fetch not yet written
         fills_at = {}        # clock -> position written then
         granted_at = {}      # clock -> position granted then
         expect = {}          # clock -> underflow the reads of an earlier clock must give
@@ -53,14 +53,14 @@ def test_underflow_says_which_reads_missed_their_word(positions, reads, seed):
                 fill = now + rng.randint(1, 12)
                 while fill in fills_at:
                     fill += 1
-                outstanding[p], fills_at[fill], granted_at[now] = (fill, token), p, p
+                outstanding[p], fills_at[fill], granted_at[now] = token, p, p
                 ctx.set(dut.grant_pos, p)
             ctx.set(dut.grant, grant)
             fill_pos = fills_at.pop(now, None)
             ctx.set(dut.fill_en, fill_pos is not None)
             if fill_pos is not None:
                 ctx.set(dut.fill_pos, fill_pos)
-                ctx.set(wp.data, outstanding.pop(fill_pos)[1])
+                ctx.set(wp.data, outstanding.pop(fill_pos))
             # this clock's reads, aimed at this clock's and the last clock's fill
             # and grant half of the time
             late_now = False
