@@ -10,10 +10,15 @@ initialised by the CPU-less sequencer.
 * :class:`SDRAMSystemTop`: the board's replay system (UART bridge + engine)
   on the same core, for the load chain through the UART.
 
-Both are :class:`OnSimSDRAM`: one clock port, the controller's clock the
-fabric clock divided by 4 (a flip-flop), 50 MHz beside 200 MHz as on the
-board, two domains crossing through the pool's two ``CrossingQueue`` instances.
+Both are :class:`OnSimSDRAM`: one clock port, the controller's clock made
+from the fabric clock by :class:`FractionalClock` at the board's ratio
+(SDRAM_CLOCK_HZ against the contract's fabric clock: 4 for 200 MHz, 16/5 for
+160 MHz), two domains crossing through the pool's two ``CrossingQueue``
+instances.
 """
+
+from fractions import Fraction
+from numbers import Rational
 
 from amaranth.hdl import ClockDomain, ClockSignal, Module, ResetSignal, Signal
 from amaranth.lib import wiring
@@ -24,8 +29,8 @@ from rast.gateware.sdram.generate import CORE_NAME, generate_core
 from rast.hdl.sdram_pool import SDRAMStreamPool, WORD_WIDTH
 
 __all__ = ["SDRAMPoolTop", "sdram_top_sources", "TOPLEVEL", "LITEDRAM_LINT_WAIVERS",
-           "OnSimSDRAM", "SDRAMEngineTop", "SDRAMSystemTop", "ENGINE_TOPLEVEL", "SDRAM_CLOCK_DIVIDER",
-           "sdram_engine_sources"]
+           "FractionalClock", "OnSimSDRAM", "SDRAMEngineTop", "SDRAMSystemTop", "ENGINE_TOPLEVEL",
+           "fabric_clocks_per_sdram_clock", "sdram_engine_sources"]
 
 TOPLEVEL = "sdram_top"
 
@@ -84,9 +89,60 @@ def sdram_top_sources(*, tag_width=6, queue_depth=16, cdelay_clocks=1):
 
 
 ENGINE_TOPLEVEL = "sdram_engine_top"
-#: Fabric clocks per controller clock in :class:`SDRAMEngineTop` (the
-#: contract's SDRAM bounds assume the fabric at SDRAM_FABRIC_HZ, 4 x SDRAM_CLOCK_HZ).
-SDRAM_CLOCK_DIVIDER = 4
+
+
+def fabric_clocks_per_sdram_clock(fabric_hz: int) -> Fraction:
+    """Fabric clocks per controller clock on the board: ``fabric_hz`` (0: not
+    stated, SDRAM_FABRIC_HZ as the contract takes it) over SDRAM_CLOCK_HZ."""
+    from rast.model.fixedpoint import SDRAM_CLOCK_HZ, SDRAM_FABRIC_HZ
+    return Fraction(int(fabric_hz) or SDRAM_FABRIC_HZ, SDRAM_CLOCK_HZ)
+
+
+class FractionalClock(wiring.Component):
+    """A clock at ``1 / ratio`` of the domain's, for simulation: ``clk``
+    toggles whenever a phase accumulator that gains ``2 * denominator`` per
+    clock passes ``numerator``, so ``ratio`` = ``numerator / denominator``
+    clocks make one period on average, and every edge is a fabric edge (at
+    16/5, the 160 MHz board's 50 MHz controller, five periods of 3 or 4
+    clocks in every 16). At a whole ratio the periods are equal; at 4 the
+    output is bit 1 of a counter from 0. The board's PLL gives edges between
+    the fabric's instead; the crossings between the two domains assume no
+    phase relation, so what the simulation must get right is the rate.
+
+    Parameters
+    ----------
+    ratio : Rational
+        Clocks of the domain per output period, at least 2 (each half period
+        at least one clock).
+
+    Members
+    -------
+    clk : Out(1)
+    """
+
+    clk: Out(1)
+
+    def __init__(self, ratio):
+        if not isinstance(ratio, Rational) or isinstance(ratio, bool):
+            raise TypeError(f"Clock ratio must be a rational number, not {ratio!r}")
+        if ratio < 2:
+            raise ValueError(f"Clock ratio must be at least 2 (a clock a half period), not {ratio}")
+        self._ratio = Fraction(ratio)
+        super().__init__()
+
+    @property
+    def ratio(self) -> Fraction:
+        return self._ratio
+
+    def elaborate(self, platform):
+        m = Module()
+        num, step = self._ratio.numerator, 2 * self._ratio.denominator
+        phase = Signal(range(num))
+        with m.If(phase + step >= num):
+            m.d.sync += [phase.eq(phase + step - num), self.clk.eq(~self.clk)]
+        with m.Else():
+            m.d.sync += phase.eq(phase + step)
+        return m
 
 
 class OnSimSDRAM(wiring.Component):
@@ -95,11 +151,12 @@ class OnSimSDRAM(wiring.Component):
 
     Ports: ``inner``'s members named in ``names``, passed through, and the
     core's ``init_done``, ``init_error``. The controller's domain ``sdram``
-    runs at the fabric clock / 4, its reset held for 16 fabric clocks after
-    the fabric's.
+    runs at the fabric clock / ``fabric_per_sdram`` (:class:`FractionalClock`),
+    its reset held for 16 fabric clocks after the fabric's.
     """
 
-    def __init__(self, core, inner, names, *, cdelay_clocks=1):
+    def __init__(self, core, inner, names, *, cdelay_clocks=1, fabric_per_sdram=4):
+        self._clock = FractionalClock(fabric_per_sdram)
         self._generated = core
         self._inner = inner
         self._names = tuple(names)
@@ -112,6 +169,10 @@ class OnSimSDRAM(wiring.Component):
     def inner(self):
         return self._inner
 
+    @property
+    def fabric_per_sdram(self) -> Fraction:
+        return self._clock.ratio
+
     def verilog_sources(self, name):
         """``{file: Verilog}``: this top as module ``name`` and LiteDRAM's core."""
         from amaranth.back import verilog
@@ -121,13 +182,11 @@ class OnSimSDRAM(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         m.domains.sdram = ClockDomain("sdram", local=True)
-        div = Signal(2)
+        m.submodules.sdram_clock = clock = self._clock
         hold = Signal(range(17), init=16)
-        m.d.sync += div.eq(div + 1)
         with m.If(hold != 0):
             m.d.sync += hold.eq(hold - 1)
-        assert SDRAM_CLOCK_DIVIDER == 4
-        m.d.comb += [ClockSignal("sdram").eq(div[1]), ResetSignal("sdram").eq(hold != 0)]
+        m.d.comb += [ClockSignal("sdram").eq(clock.clk), ResetSignal("sdram").eq(hold != 0)]
         m.submodules.inner = inner = self._inner
         m.submodules.sdram = core = self._core
         wiring.connect(m, inner.native, core.native)
@@ -148,13 +207,17 @@ class SDRAMEngineTop(OnSimSDRAM):
     """``WindFarmReplay(pool="sdram", **kwargs)`` on LiteDRAM's simulation
     core; ports: the engine's ``i``, ``o``, ``bus``, ``overflow``, ``slot``,
     ``pool_error``, ``underflow`` (those of the block-RAM engine's top, so
-    that the bulk wrapper drives it unchanged) and ``init_done``, ``init_error``."""
+    that the bulk wrapper drives it unchanged) and ``init_done``, ``init_error``.
+    ``fabric_per_sdram``: fabric clocks per controller clock, by default the
+    board's for the contract's fabric clock (:func:`fabric_clocks_per_sdram_clock`)."""
 
-    def __init__(self, core, channels, *, cdelay_clocks=1, **kwargs):
+    def __init__(self, core, channels, *, cdelay_clocks=1, fabric_per_sdram=None, **kwargs):
         from rast.hdl.replay_top import WindFarmReplay
-        super().__init__(core, WindFarmReplay(channels, pool="sdram", **kwargs),
-                         ("i", "o", "bus", "overflow", "slot", "pool_error", "underflow"),
-                         cdelay_clocks=cdelay_clocks)
+        engine = WindFarmReplay(channels, pool="sdram", **kwargs)
+        if fabric_per_sdram is None:
+            fabric_per_sdram = fabric_clocks_per_sdram_clock(engine.contract.clock_hz)
+        super().__init__(core, engine, ("i", "o", "bus", "overflow", "slot", "pool_error", "underflow"),
+                         cdelay_clocks=cdelay_clocks, fabric_per_sdram=fabric_per_sdram)
 
     @property
     def engine(self):
@@ -166,12 +229,14 @@ class SDRAMSystemTop(OnSimSDRAM):
     :class:`rast.gateware.top.ReplaySystem`, ``pool="sdram"``) on LiteDRAM's
     simulation core, for the load chain through the UART (``rast.sim.uart_chain``):
     ports ``rx``, ``tx``, ``i``, ``o``, ``overflow``, ``pool_error``,
-    ``init_done``, ``init_error``."""
+    ``init_done``, ``init_error``; the controller at SDRAM_CLOCK_HZ against
+    ``clk_hz``, as on the board."""
 
     def __init__(self, core, clk_hz, *, cdelay_clocks=1, **system_kwargs):
         from rast.gateware.top import ReplaySystem
         super().__init__(core, ReplaySystem(clk_hz, pool="sdram", **system_kwargs),
-                         ("rx", "tx", "i", "o", "overflow", "pool_error"), cdelay_clocks=cdelay_clocks)
+                         ("rx", "tx", "i", "o", "overflow", "pool_error"), cdelay_clocks=cdelay_clocks,
+                         fabric_per_sdram=fabric_clocks_per_sdram_clock(round(clk_hz)))
 
     @property
     def system(self):
@@ -182,8 +247,9 @@ class SDRAMSystemTop(OnSimSDRAM):
         return self.inner.divisor
 
 
-def sdram_engine_sources(channels, *, cdelay_clocks=1, **kwargs):
+def sdram_engine_sources(channels, *, cdelay_clocks=1, fabric_per_sdram=None, **kwargs):
     """``{file: Verilog}`` of :class:`SDRAMEngineTop` (module ``sdram_engine_top``)
     and LiteDRAM's simulation core; ``kwargs`` as for ``WindFarmReplay``."""
-    top = SDRAMEngineTop(generate_core(sim=True), channels, cdelay_clocks=cdelay_clocks, **kwargs)
+    top = SDRAMEngineTop(generate_core(sim=True), channels, cdelay_clocks=cdelay_clocks,
+                         fabric_per_sdram=fabric_per_sdram, **kwargs)
     return top.verilog_sources(ENGINE_TOPLEVEL)

@@ -45,20 +45,22 @@ def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
 @lru_cache(maxsize=None)
 def sdram_engine_top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int, slots: int = 1,
                              interpolation: str = "fir", sample_rate_hz: int = 0, src_aw: int = 22,
-                             reg_aw: int = 20):
+                             reg_aw: int = 20, fabric_per_sdram=None):
     """``({file: text}, toplevel)`` of the engine with its pool in SDRAM
     (:class:`rast.sim.sdram_top.SDRAMEngineTop`, LiteDRAM's simulation core)
     inside ``rast_bulk``; ``pool_error``, ``underflow``, ``init_done`` and ``init_error`` observed.
     ``sample_rate_hz`` (0: not stated, the fabric taken at its fastest) sets the
-    fabric clock the contract's SDRAM bounds assume; the simulation's is
-    always 4 x the controller's. ``reg_aw`` 20: a million register writes, a
-    stream pool's worth (a 64-turbine farm and its reload)."""
+    fabric clock the contract's SDRAM bounds assume, and the simulated
+    controller runs at SDRAM_CLOCK_HZ against it (4 fabric clocks a controller
+    clock at 200 MHz, 16/5 at 160 MHz) unless ``fabric_per_sdram`` says
+    otherwise. ``reg_aw`` 20: a million register writes, a stream pool's
+    worth (a 64-turbine farm and its reload)."""
     from rast.model.fixedpoint import ReplayContract
     from rast.model.regmap import register_map
     from rast.sim.sdram_top import ENGINE_TOPLEVEL, sdram_engine_sources
     kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
                   interpolation=interpolation, sample_rate_hz=sample_rate_hz)
-    sources = sdram_engine_sources(channels, **kwargs)
+    sources = sdram_engine_sources(channels, fabric_per_sdram=fabric_per_sdram, **kwargs)
     aw = register_map(ReplayContract(channels=channels, pool="sdram", **kwargs)).addr_width
     pm = port_map(aw, ENGINE_TOPLEVEL, ("overflow", "pool_error", "underflow", "init_done", "init_error"))
     return {**sources, "rast_bulk.v": bulk_verilog(pm, src_aw=src_aw, reg_aw=reg_aw)}, "rast_bulk"

@@ -1,6 +1,7 @@
 """Cosimulation of the replay engine with its stream pool in SDRAM
 (``WindFarmReplay(pool="sdram")`` on LiteDRAM's simulation core, controller
-clock = fabric / 4) against the bit-exact model: streams loaded through the
+clock = fabric / 4 as on the 200 MHz board, or / 3.2 as on the 160 MHz one)
+against the bit-exact model: streams loaded through the
 bus into the SDRAM while the engine runs (each checked by its CRC-32 before
 its switch, a quarter of the mid-run reloads damaged and refused), reloads
 and forced switches mid-run, refresh running, valid gaps and ready stalls.
@@ -26,11 +27,13 @@ MODULE = "rast.sim.tb_top"
 
 
 def _run(channels, kind, seed, *, slots, pulses, gaps=(48, 48), model_pool="sdram", interpolation="fir",
-         sample_rate_hz=0):
+         sample_rate_hz=0, fabric_per_sdram=None):
     contract = dict(TEST_CONTRACT, slots=slots, sample_rate_hz=sample_rate_hz)
-    sources, top = sdram_engine_top_sources(channels, interpolation=interpolation, **contract)
+    sources, top = sdram_engine_top_sources(channels, interpolation=interpolation,
+                                            fabric_per_sdram=fabric_per_sdram, **contract)
+    ratio = f"r{fabric_per_sdram}".replace("/", "_") if fabric_per_sdram is not None else ""
     cocotb_run(sources, top, MODULE, "replay_bulk_sdram", simulator="verilator", bulk=True,
-               label=f"sdram_engine{channels}m{slots}{interpolation}{sample_rate_hz or ''}", name=f"sdram-{kind}-{channels}ch-m{slots}-s{seed}",
+               label=f"sdram_engine{channels}m{slots}{interpolation}{sample_rate_hz or ''}{ratio}", name=f"sdram-{kind}-{channels}ch-m{slots}-s{seed}",
                tb_params=dict(kind=kind, channels=channels, seed=seed, gap_thresh=gaps[0],
                               stall_thresh=gaps[1], pulses=pulses, interpolation=interpolation, contract=dict(contract, pool=model_pool)))
 
@@ -57,6 +60,17 @@ def test_worst_fetch_schedule_starves_no_channel():
     _run(12, "worst", 73, slots=4, pulses=80, gaps=(0, 0), interpolation="linear")
 
 
+def test_worst_fetch_schedule_at_the_160_mhz_board_clocks():
+    """The same worst case for the 160 MHz board (`rast build --sdram
+    --clock-mhz 160`: 8 slots at 20 MS/s, the controller at 50 MHz): the
+    contract's bounds scale by 160 / 50 = 3.2 fabric clocks a controller
+    clock, so its highest stream rate and refill are those of that board, and
+    the simulated controller runs at that ratio (five clocks in every 16
+    fabric clocks), not at the 200 MHz board's 4."""
+    _run(12, "worst", 74, slots=8, pulses=80, gaps=(0, 0), interpolation="linear",
+         sample_rate_hz=20_000_000)
+
+
 def test_a_prefetch_below_the_bound_raises_the_underflow_flag():
     """The engine built for a 1 MHz fabric (250 kS/s x 4 slots), so that its
     contract counts on an SDRAM 50 times faster than the fabric (a fetch
@@ -65,7 +79,7 @@ def test_a_prefetch_below_the_bound_raises_the_underflow_flag():
     come later than the refill, the channels read them before they are there,
     and STATUS.underflow says so (the flag is checked before the samples)."""
     with pytest.raises(runner.SimulationFailed, match=r"underflow': 1"):
-        _run(5, "random", 71, slots=4, pulses=60, sample_rate_hz=250_000)
+        _run(5, "random", 71, slots=4, pulses=60, sample_rate_hz=250_000, fabric_per_sdram=4)
 
 
 @pytest.mark.slow

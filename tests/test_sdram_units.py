@@ -2,7 +2,9 @@
 reading, the init sequencer, the pool against a native-port model in the
 Amaranth simulator, and every constructor's parameter checks."""
 
+import math
 import random
+from fractions import Fraction
 from pathlib import Path
 
 import pytest
@@ -14,6 +16,7 @@ from rast.gateware.sdram.generate import (InitOp, LiteDRAMGenError, generate_cor
                                           parse_init_sequence)
 from rast.gateware.sdram.init import SDRAMInit, bios_sdram_init
 from rast.hdl.sdram_pool import SDRAMStreamPool
+from rast.sim.sdram_top import FractionalClock, fabric_clocks_per_sdram_clock
 
 
 @pytest.fixture(scope="module")
@@ -354,3 +357,54 @@ def test_a_reload_goes_beside_the_playing_streams_as_fast_as_the_pool_takes_it()
     assert first_data == data                                   # the same streams, the second time
     for ch in range(len(words)):
         assert [r[2] for r in reload if r[1] == rmap.addr("CTRL", ch)] == [0, CTRL_SWAP, CTRL_ENABLE]
+
+
+# ------------------------------------------------- the simulated controller clock
+
+@pytest.mark.parametrize("ratio", [Fraction(4), Fraction(16, 5), Fraction(2), Fraction(5, 2), Fraction(3)],
+                         ids=str)
+def test_the_simulated_controller_clock_runs_at_its_ratio(ratio):
+    """FractionalClock: over whole cycles of its pattern, exactly one period
+    per ``ratio`` clocks; every half period is the fabric clocks of half a
+    period rounded down or up (no gap longer than the board's clock allows);
+    at 4 the pattern is bit 1 of a counter from 0 (the divider it replaces)."""
+    dut = FractionalClock(ratio)
+    clocks = 20 * ratio.numerator              # 20 whole cycles of the pattern
+    seen = []
+
+    async def bench(ctx):
+        for _ in range(clocks + 1):
+            seen.append(ctx.get(dut.clk))
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    toggles = [k for k in range(1, clocks + 1) if seen[k] != seen[k - 1]]
+    rises = [k for k in toggles if seen[k]]
+    assert len(rises) == clocks / ratio and len(toggles) == 2 * len(rises) and seen[-1] == seen[0] == 0
+    half = ratio / 2
+    runs = {b - a for a, b in zip(toggles, toggles[1:])}
+    assert runs == ({int(half)} if half.denominator == 1 else {math.floor(half), math.ceil(half)})
+    if ratio == 4:
+        assert seen == [(k >> 1) & 1 for k in range(clocks + 1)]
+
+
+@pytest.mark.parametrize("ratio, exc, msg", [
+    (Fraction(3, 2), ValueError, r"^Clock ratio must be at least 2 \(a clock a half period\), not 3/2$"),
+    (1, ValueError, r"^Clock ratio must be at least 2 \(a clock a half period\), not 1$"),
+    (4.0, TypeError, r"^Clock ratio must be a rational number, not 4\.0$"),
+    (True, TypeError, r"^Clock ratio must be a rational number, not True$"),
+])
+def test_the_simulated_controller_clock_needs_two_clocks_a_period(ratio, exc, msg):
+    with pytest.raises(exc, match=msg):
+        FractionalClock(ratio)
+
+
+def test_the_simulated_controller_runs_at_the_boards_ratio():
+    """SDRAM_CLOCK_HZ against the contract's fabric clock: 4 at 200 MHz (and
+    when the fabric is not stated), 16/5 at 160 MHz."""
+    assert fabric_clocks_per_sdram_clock(0) == 4
+    assert fabric_clocks_per_sdram_clock(200_000_000) == 4
+    assert fabric_clocks_per_sdram_clock(160_000_000) == Fraction(16, 5)
