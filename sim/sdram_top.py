@@ -27,6 +27,7 @@ from amaranth.lib.wiring import In, Out
 from rast.gateware.sdram.core import LiteDRAMCore
 from rast.gateware.sdram.generate import CORE_NAME, generate_core
 from rast.hdl.sdram_pool import SDRAMStreamPool, WORD_WIDTH
+from rast.model.fixedpoint import SDRAM_CLOCK_HZ, SDRAM_FABRIC_HZ
 
 __all__ = ["SDRAMPoolTop", "sdram_top_sources", "TOPLEVEL", "LITEDRAM_LINT_WAIVERS",
            "FractionalClock", "OnSimSDRAM", "SDRAMEngineTop", "SDRAMSystemTop", "ENGINE_TOPLEVEL",
@@ -94,7 +95,6 @@ ENGINE_TOPLEVEL = "sdram_engine_top"
 def fabric_clocks_per_sdram_clock(fabric_hz: int) -> Fraction:
     """Fabric clocks per controller clock on the board: ``fabric_hz`` (0: not
     stated, SDRAM_FABRIC_HZ as the contract takes it) over SDRAM_CLOCK_HZ."""
-    from rast.model.fixedpoint import SDRAM_CLOCK_HZ, SDRAM_FABRIC_HZ
     return Fraction(int(fabric_hz) or SDRAM_FABRIC_HZ, SDRAM_CLOCK_HZ)
 
 
@@ -168,10 +168,6 @@ class OnSimSDRAM(wiring.Component):
     @property
     def inner(self):
         return self._inner
-
-    @property
-    def fabric_per_sdram(self) -> Fraction:
-        return self._clock.ratio
 
     def verilog_sources(self, name):
         """``{file: Verilog}``: this top as module ``name`` and LiteDRAM's core."""
