@@ -14,53 +14,165 @@ meets its clock when every seed does).
 whose endpoints the data reaches latest after the asked clock period: the
 whole picture of what misses the clock, where the build's critical path is
 only its worst path.
+
+``--readme`` writes the README's timing table (between its
+``<!-- timing-table -->`` markers) from the reports of the rungs in
+README_ROWS at their seeds: one row per build, every seed's fmax, the worst
+seed's margin over the asked clock, the resources and the netlist (the
+commit it was made from and its RTLIL digest). A seed whose report is of
+another netlist than the current source's is built again; the others are
+read. ``make timing-table`` runs it.
 """
 
 import argparse
 import json
+import re
 import time
 from pathlib import Path
 
-from rast.gateware.build import NAME, BuildConfig, build, late_endpoints
+from rast.gateware.build import NAME, BuildConfig, build, late_endpoints, netlist_identity
 from rast.model.fixedpoint import ReplayContract
 
 #: label -> (what it answers, BuildConfig keyword arguments). Every rung on the
 #: full board top (PLL, I/O, UART bridge, engine), delays 8190 + 2046 samples.
 LADDER = {
-    "n64_20_200": ("default: 64 FIR channels at 20 MS/s on a 200 MHz fabric (M = 10, 7 pipelines), "
-                   "81,920-word pool", dict()),
-    "n64_20_160": ("64 FIR channels at 20 MS/s on a 160 MHz fabric (M = 8, 8 pipelines): every block RAM, "
-                   "the 64-channel build to run on a board", dict(clock_mhz=160)),
+    "n64_20_160": ("the default (`make bitstream`): 64 FIR channels at 20 MS/s on a 160 MHz fabric "
+                   "(M = 8, 8 pipelines), 65,536-word pool", dict()),
+    "n64_20_200": ("64 FIR channels at 20 MS/s on a 200 MHz fabric (M = 10, 7 pipelines), 81,920-word "
+                   "pool: the withdrawn target", dict(clock_mhz=200, pool_words=81920)),
     "n16_100_200": ("wide band: 16 FIR channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",
-                    dict(channels=16, sample_rate_mhz=100, pool_words=32768)),
+                    dict(channels=16, sample_rate_mhz=100, clock_mhz=200, pool_words=32768)),
     "n20_20_200": ("two pipelines of the default (20 channels, M = 10), 16,384-word pool",
-                   dict(channels=20, pool_words=16384)),
+                   dict(clock_mhz=200, channels=20, pool_words=16384)),
     "n10_20_200": ("one pipeline of the default (10 channels, M = 10), 16,384-word pool",
-                   dict(channels=10, pool_words=16384)),
-    "n10p_20_200": ("one pipeline of the default with the default's 81,920-word pool (five banks)",
-                    dict(channels=10)),
+                   dict(clock_mhz=200, channels=10, pool_words=16384)),
+    "n10p_20_200": ("one pipeline of the 200 MHz rung with the default's 65,536-word pool (four banks)",
+                    dict(clock_mhz=200, channels=10)),
     "n20p_20_200": ("two pipelines of the default with its whole pool: how fmax falls with the pipelines",
-                    dict(channels=20)),
-    "n40p_20_200": ("four pipelines of the default with its whole pool", dict(channels=40)),
+                    dict(clock_mhz=200, channels=20)),
+    "n40p_20_200": ("four pipelines of the default with its whole pool", dict(clock_mhz=200, channels=40)),
     "n10_10_100": ("one pipeline at 100 MHz (10 channels at 10 MS/s, M = 10): the CI build",
                    dict(channels=10, sample_rate_mhz=10, clock_mhz=100, pool_words=16384)),
     "s64_20_200": ("streams in SDRAM: the --sdram default, 64 channels at 20 MS/s on 200 MHz (M = 10, "
-                   "7 pipelines)", dict(pool="sdram")),
+                   "7 pipelines)", dict(clock_mhz=200, pool="sdram")),
     "s64_20_160": ("streams in SDRAM: 64 channels at 20 MS/s on a 160 MHz fabric (M = 8, 8 pipelines)",
-                   dict(pool="sdram", clock_mhz=160)),
+                   dict(pool="sdram")),
     "s32_20_200": ("streams in SDRAM: 32 channels at 20 MS/s on 200 MHz (M = 10, 4 pipelines)",
-                   dict(channels=32, pool="sdram")),
+                   dict(clock_mhz=200, channels=32, pool="sdram")),
     "s32_20_160": ("streams in SDRAM: 32 channels at 20 MS/s on a 160 MHz fabric (M = 8, 4 pipelines)",
                    dict(channels=32, pool="sdram", clock_mhz=160)),
     "s48_20_160": ("streams in SDRAM: 48 channels at 20 MS/s on a 160 MHz fabric (M = 8, 6 pipelines)",
                    dict(channels=48, pool="sdram", clock_mhz=160)),
     "s16_100_200": ("streams in SDRAM: 16 channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",
-                    dict(channels=16, sample_rate_mhz=100, pool="sdram")),
+                    dict(clock_mhz=200, channels=16, sample_rate_mhz=100, pool="sdram")),
     "s10_10_100": ("streams in SDRAM: the CI shape at 100 MHz (10 channels at 10 MS/s)",
                    dict(channels=10, sample_rate_mhz=10, clock_mhz=100, pool="sdram")),
 }
 
-ROOT = Path(__file__).resolve().parent.parent / "build" / "bench_bitstream"
+REPO = Path(__file__).resolve().parent.parent
+ROOT = REPO / "build" / "bench_bitstream"
+
+#: The README's timing table: rung -> the nextpnr seeds it is built at. The
+#: default and the 64-channel SDRAM build must meet on five of five seeds,
+#: the worst at least MARGIN above the asked clock; the wide-band build on
+#: three; the CI build is the one the test suite places and routes.
+README_ROWS = {"n64_20_160": (1, 2, 3, 4, 5), "s64_20_160": (1, 2, 3, 4, 5),
+               "n16_100_200": (1, 2, 3), "n10_10_100": (1,)}
+#: Fabric-clock margin over the asked clock the README's rows are held to.
+MARGIN = 0.05
+TABLE_BEGIN, TABLE_END = "<!-- timing-table:begin -->", "<!-- timing-table:end -->"
+
+
+def command_of(kw) -> str:
+    """The command line that builds the rung of BuildConfig keywords ``kw``:
+    ``make bitstream`` for the default, else ``rast build`` with the options
+    that differ from the defaults."""
+    if not kw:
+        return "make bitstream"
+    flags = {"channels": "--channels", "sample_rate_mhz": "--sample-rate-mhz", "clock_mhz": "--clock-mhz",
+             "pool_words": "--pool-words", "max_delay": "--max-delay", "max_tap": "--max-tap",
+             "interpolation": "--interpolation", "cmult_form": "--cmult-form"}
+    out = ["rast build"]
+    for key, value in kw.items():
+        if key == "pool":
+            out.append("--sdram" if value == "sdram" else "")
+        else:
+            out.append(f"{flags[key]} {value:g}" if isinstance(value, float) else f"{flags[key]} {value}")
+    return " ".join(x for x in out if x)
+
+
+def current_netlist(label, kw) -> dict:
+    """The netlist identity of rung ``label`` as the source makes it now
+    (elaborated into the rung's folder, no tool run: the seed is no part of it)."""
+    out = ROOT / label / "elaborated"
+    build(BuildConfig(**kw), out, quiet=True, run_tools=False)
+    return netlist_identity(out)
+
+
+def table_row(label, seeds, reports) -> str:
+    """One row of the README's timing table from the rung's reports (one per seed)."""
+    what, kw = LADDER[label]
+    cfg = BuildConfig(**kw)
+    c = cfg.contract()
+    asked = cfg.clock_mhz
+    fmax = [r["timing"]["fmax_mhz"] for r in reports]
+    met = [r["timing"]["met"] for r in reports]
+    worst = min(fmax) / asked - 1
+    res = reports[0]["resources"]
+    used = ", ".join(f"{res[k]['used']:,} {name}" for k, name in (("luts", "LUT"), ("ffs", "FF"),
+                                                                  ("dsps", "DSP"), ("block_rams", "DP16KD")))
+    controller = [r["timing"]["domains"].get("sdram", {}).get("achieved_mhz") for r in reports]
+    extra = (f"; controller {min(controller):.1f}-{max(controller):.1f} MHz (50)"
+             if all(controller) and cfg.pool == "sdram" else "")
+    commits = sorted({r["netlist"]["commit"] or "?" for r in reports})
+    digests = sorted({r["netlist"]["rtlil_sha256"][:12] for r in reports})
+    name = (f"{c.channels} ch{' from SDRAM' if cfg.pool == 'sdram' else ''}, {cfg.sample_rate_mhz:g} MS/s, "
+            f"{asked:g} MHz (M = {c.slots}, {c.pipelines} pipelines), pool {cfg.pool_words:,} words")
+    if not kw:
+        name = f"**the default: {name}**"
+    verdict = (f"**{sum(met)} of {len(met)}**" + (f", worst +{100 * worst:.1f} %" if all(met) else ""))
+    by_seed = " / ".join(f"{f:.1f}" for f in fmax)
+    return (f"| {name} | `{command_of(kw)}` | seeds {'/'.join(map(str, seeds))}: {by_seed}{extra} | "
+            f"{verdict} | {used} | {', '.join(f'`{x}`' for x in commits)} (RTLIL {', '.join(digests)}) |")
+
+
+def write_readme_table(rows: dict, readme=REPO / "README.md") -> str:
+    """Replace the README's timing table with ``rows`` (label -> row text)."""
+    head = ("| build | command | fabric MHz by nextpnr seed (asked: the build's clock) | met "
+            "(worst seed's margin) | resources | netlist |\n| --- | --- | --- | --- | --- | --- |\n")
+    table = head + "\n".join(rows.values()) + "\n"
+    text = readme.read_text()
+    if TABLE_BEGIN not in text or TABLE_END not in text:
+        raise SystemExit(f"{readme} has no {TABLE_BEGIN} ... {TABLE_END} markers")
+    before, rest = text.split(TABLE_BEGIN, 1)
+    after = rest.split(TABLE_END, 1)[1]
+    readme.write_text(f"{before}{TABLE_BEGIN}\n{table}{TABLE_END}{after}")
+    return table
+
+
+def readme_table(rebuild_stale=True):
+    """Every README_ROWS rung at its seeds: reports of the current netlist
+    read, the others built again; then the README's table written."""
+    rows = {}
+    for label, seeds in README_ROWS.items():
+        what, kw = LADDER[label]
+        reports = []
+        now = current_netlist(label, kw)
+        for seed in seeds:
+            out = ROOT / label / f"seed{seed}"
+            rp = out / "report.json"
+            old = json.loads(rp.read_text()) if rp.exists() else None
+            if old is None or "timing" not in old or old.get("netlist", {}).get("rtlil_sha256") != now["rtlil_sha256"]:
+                if not rebuild_stale:
+                    raise SystemExit(f"{label} seed {seed}: no report of the current netlist in {out}")
+                t0 = time.monotonic()
+                build(BuildConfig(**kw, seed=seed), out, quiet=True)
+                print(f"built {label} seed {seed} in {time.monotonic() - t0:.0f} s", flush=True)
+                old = json.loads(rp.read_text())
+            reports.append(old)
+            print(row(label, what, old), flush=True)
+        rows[label] = table_row(label, seeds, reports)
+    print(write_readme_table(rows))
 
 
 def row(label, what, rep):
@@ -136,12 +248,18 @@ def main():
     ap.add_argument("--seeds", type=int, nargs="+", default=[1], metavar="S",
                     help="nextpnr seeds to build each rung at (default: 1)")
     ap.add_argument("--capacity", action="store_true", help="only print the turbines-per-device table")
+    ap.add_argument("--readme", action="store_true",
+                    help="write the README's timing table (README_ROWS at their seeds; stale or missing "
+                         "reports built again)")
     ap.add_argument("--late", type=int, metavar="K", default=0,
                     help="build with nextpnr's detailed timing report and list the K signals whose "
                          "endpoints miss the asked clock by the most (all endpoints counted)")
     args = ap.parse_args()
     if args.capacity:
         seed_capacity()
+        return
+    if args.readme:
+        readme_table()
         return
     print(f"{'label':<12} {'N':>3} {'fs':>5} {'M':>3} {'pool':>6} {'fclk':>6} {'seed':>4} {'fmax':>7} {'met':>4} {'LUTs':>6} "
           f"{'FFs':>6} {'DSPs':>8} {'BRAMs':>8}  critical path")

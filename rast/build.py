@@ -25,7 +25,7 @@ def add_arguments(p):
     g.add_argument("--package", default="BG381", help="plain device package (default BG381)")
     g.add_argument("--speed", default="6", help="plain device speed grade (default 6)")
     g.add_argument("--pinmap", help="JSON pin map for a plain device (default: the ULX3S balls)")
-    from rast.gateware.build import BuildConfig
+    from rast.gateware.build import BuildConfig, FABRIC_CLOCK_MHZ
     from rast.model.fixedpoint import SDRAM_MAX_POOL_WORDS
     dflt = BuildConfig()
     d = p.add_argument_group("design")
@@ -41,9 +41,11 @@ def add_arguments(p):
     d.add_argument("--sample-rate-mhz", type=float, default=dflt.sample_rate_mhz,
                    help=f"RTS sample rate, MHz: the converters' clock (default {dflt.sample_rate_mhz:g}, "
                         "the examples' rate)")
-    d.add_argument("--clock-mhz", type=float, default=dflt.clock_mhz,
+    d.add_argument("--clock-mhz", type=float, default=None,
                    help=f"fabric clock, MHz: a whole multiple M of the sample rate; each pipeline "
-                        f"serves M channels (default {dflt.clock_mhz:g})")
+                        f"serves M channels (default: the largest multiple of the sample rate at or "
+                        f"below {FABRIC_CLOCK_MHZ:g} MHz, the fastest the 64-channel engine closes "
+                        f"on every seed: {dflt.clock_mhz:g} MHz at {dflt.sample_rate_mhz:g} MS/s)")
     d.add_argument("--baud", type=int, default=dflt.baud, help=f"host UART baud rate (default {dflt.baud})")
     p.add_argument("--seed", type=int, default=1, help="nextpnr placer seed (default 1)")
     p.add_argument("--out", required=True, help="output folder (bitstream, logs, report.json)")
@@ -54,7 +56,7 @@ def add_arguments(p):
 
 def run(args) -> int:
     from rast.errors import UserError, check_output
-    from rast.gateware.build import BuildConfig, BuildError, build, check
+    from rast.gateware.build import BuildConfig, BuildError, build, check, clock_reason
     if args.device and args.board not in (None, "none"):
         raise UserError(f"--device {args.device} builds for a plain ECP5; leave out --board {args.board}")
     if args.board == "none" and not args.device:
@@ -62,16 +64,17 @@ def run(args) -> int:
     if args.pinmap and not args.device:
         raise UserError("--pinmap is for a plain device: give --device too")
     board = None if args.device else (args.board or "ulx3s-85f")
-    cfg = BuildConfig(board=board, device=args.device, package=args.package, speed=args.speed,
-                      pinmap=args.pinmap, channels=args.channels, sample_rate_mhz=args.sample_rate_mhz,
-                      clock_mhz=args.clock_mhz, baud=args.baud, pool_words=args.pool_words, max_delay=args.max_delay,
-                      max_tap=args.max_tap, interpolation=args.interpolation,
-                      cmult_form=args.cmult_form, seed=args.seed, pool="sdram" if args.sdram else "bram")
     try:
+        cfg = BuildConfig(board=board, device=args.device, package=args.package, speed=args.speed,
+                          pinmap=args.pinmap, channels=args.channels, sample_rate_mhz=args.sample_rate_mhz,
+                          clock_mhz=args.clock_mhz, baud=args.baud, pool_words=args.pool_words,
+                          max_delay=args.max_delay, max_tap=args.max_tap, interpolation=args.interpolation,
+                          cmult_form=args.cmult_form, seed=args.seed, pool="sdram" if args.sdram else "bram")
         check(cfg)          # everything that can be checked before a tool runs
     except ValueError as error:
         raise UserError(str(error)) from None
     check_output(args.out, folder=True, option="--out")
+    print(clock_reason(cfg, args.clock_mhz), flush=True)
     try:
         rep = build(cfg, args.out, quiet=args.quiet)
     except BuildError as e:             # a tool failed: not a mistake in the arguments
@@ -91,12 +94,19 @@ def run(args) -> int:
     print(f"stream pool{' in SDRAM' if cf.get('pool') == 'sdram' else ''}: {m['pool_words']} words; delay samples: "
           f"{m['delay_samples']['common']} common, then a window of {m['delay_samples']['tap']}")
     print(f"wrote {args.out}/{rep['bitstream']} and {args.out}/report.json")
-    cp = t["critical_path"]
     if not t["met"]:
-        print(f"rast build: timing NOT met at {args.clock_mhz:g} MHz "
-              f"(fmax {t['fmax_mhz']} MHz); worst path {cp.get('from')} -> {cp.get('to')}, "
-              f"{cp.get('delay_ns')} ns ({cp.get('logic_ns')} logic), through "
-              f"{', '.join(cp.get('source_lines', [])) or '?'}",
-              file=sys.stderr)
+        missed = {n: c for n, c in t["clocks"].items() if c["achieved_mhz"] < c["constraint_mhz"]}
+        if not missed:          # e.g. a controller clock nextpnr did not time
+            print(f"rast build: timing NOT met: clocks timed {', '.join(t['clocks']) or 'none'}, "
+                  f"domains found {', '.join(t['domains']) or 'none'}", file=sys.stderr)
+        for name, c in missed.items():
+            asked, got = c["constraint_mhz"], c["achieved_mhz"]
+            cp = next((d["critical_path"] for d in t["domains"].values() if d["clock"] == name), {})
+            print(f"rast build: timing NOT met for clock {name}: {got:.2f} MHz of the {asked:g} MHz asked, "
+                  f"{asked - got:.2f} MHz ({100 * (asked - got) / asked:.1f} %) short; its worst path, "
+                  f"{cp.get('from', '?')} -> {cp.get('to', '?')}, takes {cp.get('delay_ns', '?')} ns "
+                  f"({cp.get('logic_ns', '?')} logic), {1e3 / got - 1e3 / asked:.3f} ns more than the "
+                  f"{1e3 / asked:.3f} ns period; through {', '.join(cp.get('source_lines', [])) or '?'}",
+                  file=sys.stderr)
         return 0 if args.allow_timing_fail else 1
     return 0

@@ -318,14 +318,18 @@ def no_build(monkeypatch):
 
 @pytest.mark.parametrize("args, needles", [
     (["--channels", "160", "--pool-words", "16384", "--max-tap", "510"],
-     ["160 channels (16 pipelines of 10 slots)", "need 160 MULT18X18D", "the LFE5U-85F has 156"]),
+     ["160 channels (20 pipelines of 8 slots)", "need 200 MULT18X18D", "the LFE5U-85F has 156"]),
     (["--pool-words", "98304"], ["98304-word stream pool", "DP16KD block RAMs", "the LFE5U-85F has 208"]),
-    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 180 DP16KD", "the LFE5U-25F has 56"]),
+    (["--board", "ulx3s-25f", "--channels", "4"], ["4 channels", "need 148 DP16KD", "the LFE5U-25F has 56"]),
     (["--clock-mhz", "1000"], ["PLL output frequency must be in", "not 1000.0"]),
     (["--clock-mhz", "0"], ["Clock must be a positive number of MHz"]),
     (["--clock-mhz", "210"], ["Clock 210 MHz must be a whole multiple of the sample rate 20 MHz"]),
+    # at 100 MS/s the default fabric clock is 100 MHz, one slot a pipeline
+    (["--sample-rate-mhz", "100"], ["64 channels (64 pipelines of 1 slots)", "need 400 DP16KD"]),
     (["--sample-rate-mhz", "-20"], ["Sample rate must be a positive number of MHz"]),
-    (["--baud", "60000000"], ["Baud rate 60000000 is too fast"]),
+    (["--baud", "60000000"], ["Baud rate 60000000 is outside what the board's USB UART (FT231X) makes"]),
+    (["--baud", "7"], ["Baud rate 7 is outside", "300 to 3000000 baud"]),
+    (["--clock-mhz", "inf"], ["Clock must be a positive number of MHz, not inf"]),
     (["--pool-words", "1000"], ["Pool words must be a power of two from 16 to 16384", "not 1000"]),
     (["--channels", "0"], ["Channel count must be a positive integer, not 0"]),
     (["--board", "none"], ["--board none needs --device"]),

@@ -318,10 +318,10 @@ def test_tower_and_ram_depth_options(tmp_path, capsys):
 
 ATC_ARGS = ["--radar", "32.1870,-100.4315,20", "--wind-from", "200", "--wind-speed", "9",
             "--radar-frequency", "2800", "--prf", "1000", "--pulse-width", "1", "--tower-rcs", "100",
-            "--ram-depth", "81920"]
+            "--ram-depth", "65536"]
 #: The default build of the time-multiplexed engine: stream pool, common delay and tap
 #: window (samples at 20 MS/s), FIR interpolation up to fs/768.
-POOL_WORDS, MAX_DELAY, MAX_TAP, FIR_RATIO = 81_920, 8190, 2046, 768
+POOL_WORDS, MAX_DELAY, MAX_TAP, FIR_RATIO = 65_536, 8190, 2046, 768
 
 
 def test_atc_example_regenerates_identically(tmp_path, capsys):

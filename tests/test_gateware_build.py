@@ -51,7 +51,7 @@ def test_plain_device_needs_pinmap_for_other_packages():
 def test_elaborates_for_ecp5(tmp_path, board, device):
     """Platform files (RTLIL, LPF) are produced; the sample interface is DDR on the header."""
     cfg = BuildConfig(board=board, device=device, package="BG381", speed="8", channels=2,
-                      pool_words=256, max_delay=254, max_tap=62)
+                      pool_words=256, max_delay=254, max_tap=62, clock_mhz=200)
     rep = build(cfg, tmp_path, quiet=True, run_tools=False)
     il = (tmp_path / "rast_top.il").read_text()
     lpf = (tmp_path / "rast_top.lpf").read_text()
@@ -168,7 +168,7 @@ def test_pll_output_errors():
 def test_build_config_pool():
     from rast.gateware.build import check
     from rast.model.fixedpoint import SDRAM_MAX_POOL_WORDS
-    assert BuildConfig().pool == "bram" and BuildConfig().pool_words == 81920
+    assert BuildConfig().pool == "bram" and BuildConfig().pool_words == 65536
     assert BuildConfig(pool="sdram").pool_words == SDRAM_MAX_POOL_WORDS == 1 << 23
     assert BuildConfig(pool="sdram", pool_words=1 << 20).pool_words == 1 << 20
     assert BuildConfig(pool="sdram").replay_kwargs()["pool"] == "sdram"
@@ -305,7 +305,7 @@ def test_cli_sdram_option(tmp_path, capsys):
     args = build_parser().parse_args(["build", "--sdram", "--out", str(tmp_path / "a")])
     assert args.sdram is True and args.pool_words is None
     args = build_parser().parse_args(["build", "--out", str(tmp_path / "a")])
-    assert args.sdram is False and BuildConfig(pool_words=args.pool_words).pool_words == 81920
+    assert args.sdram is False and BuildConfig(pool_words=args.pool_words).pool_words == 65536
     out = tmp_path / "b"
     assert main(["build", "--sdram", "--device", "LFE5U-85F", "--out", str(out)]) == 2
     assert "needs a board with SDRAM" in capsys.readouterr().err

@@ -113,10 +113,10 @@ def test_stream_says_whether_it_fits_the_default_bitstream(tmp_path, capsys):
     default bitstream, and names what does not fit."""
     assert main(["stream", str(ROOT / "examples" / "farm_atc_sband.toml"), "--out", str(tmp_path / "a")]) == 0
     out = capsys.readouterr().out
-    assert "fits the default bitstream (64 channels, 20 MS/s, a stream pool of 81920 words" in out
+    assert "fits the default bitstream (64 channels, 20 MS/s, a stream pool of 65536 words" in out
     assert main(["stream", str(ROOT / "examples" / "farm_layout.toml"), "--out", str(tmp_path / "b")]) == 0
     out = capsys.readouterr().out
-    assert "does not fit the default bitstream" in out and "but the stream pool holds 81920" in out
+    assert "does not fit the default bitstream" in out and "but the stream pool holds 65536" in out
 
 
 def test_stream_says_where_echoes_add_up_beyond_full_scale(tmp_path, capsys):
