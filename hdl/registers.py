@@ -21,9 +21,14 @@ __all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "slot_values_l
 SLOT_RAM_FIELDS = {"gain": ("GAIN", "gain"), "length": ("LENGTH", "length"),
                    "increment": ("PHASE_INC", "inc"), "base": ("BASE", "base")}
 
-#: Every per-channel field kept in its group's distributed RAMs (and in no
-#: flip-flop): the engine's, and the CRC the SWAP check compares.
+#: Every per-channel field the host writes that is kept in its group's
+#: distributed RAMs (and in no flip-flop): the engine's, and the CRC the SWAP
+#: check compares.
 RAM_FIELDS = {**SLOT_RAM_FIELDS, "crc": ("CRC", "crc")}
+#: The per-channel fields read back from those RAMs: the readable ones, and
+#: PLAYED (a RAM of the group's too, written by a SWAP taken).
+READ_BACK_RAM = {**{name: rf for name, rf in RAM_FIELDS.items() if rf != ("CRC", "crc")},
+                 "played": ("PLAYED", "crc")}
 
 
 def crc32_step(crc, bits):
@@ -492,8 +497,40 @@ class RegisterFile(wiring.Component):
             """The access ``op`` is to the register at ``offset`` of one of ``members``."""
             return _within(op.addr, *ram_range(members)) & (op.addr[:stride_bits] == offset)
 
+        def slot_ram(g, members, name, reg_name, field_name, w_en_in, w_slot, w_onehot_in, data_in):
+            """Group g's distributed RAM of one per-channel field (channel
+            members[s] at slot s), written at the landing (``w_en_in`` and the
+            landing slot one-hot a clock ahead, ``w_slot`` and ``data_in`` in
+            the landing clock), and the slots unwritten since reset. Returns
+            ``(read, fresh, fresh_ahead, reset_of, resets)``: ``read(slot)``
+            a read port's word."""
+            width = rmap.reg(reg_name, 0).field(field_name).width
+            w_en = landing(w_en_in, 1, f"ram_{name}_we_g{g}")
+            resets = [0] * D
+            for s, ch in enumerate(members):
+                resets[s] = rmap.reg(reg_name, ch).field(field_name).reset
+            mem = Memory(shape=width, depth=D, init=resets, attrs={"ram_style": "distributed"})
+            m.submodules[f"ram_{name}_g{g}"] = mem
+            wp = mem.write_port()
+            m.d.comb += [wp.en.eq(w_en), wp.addr.eq(w_slot), wp.data.eq(data_in)]
+            # the slots unwritten since reset, and the same a clock ahead,
+            # from the landing's inputs (from the landing's registers, the
+            # write enable -> the next fresh bits -> the engine's
+            # use-reset flag was the 64-channel build's worst path, 7.7 ns)
+            fresh = Signal(D, init=(1 << len(members)) - 1, name=f"ram_{name}_fresh_g{g}")
+            fresh_ahead = Signal(D, init=(1 << len(members)) - 1, name=f"ram_{name}_fresh_ahead_g{g}")
+            m.d.sync += [fresh_ahead.eq(fresh_ahead & ~Mux(w_en_in, w_onehot_in, 0)),
+                         fresh.eq(fresh_ahead)]
+
+            def raw_read(slot):
+                rp = mem.read_port(domain="comb")
+                m.d.comb += rp.addr.eq(slot)
+                return rp.data
+            return raw_read, fresh, fresh_ahead, Array(Const(v, width) for v in resets), resets
+
         ram_reads = []         # per group: field name -> (fn(slot) -> the RAM's word, fresh bits, reset values)
         unstated = []          # per group: slots whose BASE, LENGTH or CRC is unwritten since reset
+        landing_slot = []      # per group: (the landing slot, its one-hot a clock ahead)
         for g, members in enumerate(self._groups):
             # the group's landing decode: APPLY is in it too, but its offset
             # is no RAM field's, so it writes none
@@ -503,36 +540,16 @@ class RegisterFile(wiring.Component):
                                  D, "pre_slot_onehot", g)
             w_slot = landing(Mux(in_group, pre_slot, 0), slot_bits, f"ram_slot_g{g}", data=True)
             w_onehot_in = Mux(in_group, pre_onehot, 0)      # the landing slot, one-hot, a clock ahead
+            landing_slot.append((w_slot, w_onehot_in))
             reads, fresh_of = {}, {}
             for name, (reg_name, field_name) in RAM_FIELDS.items():
                 offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
                 width = rmap.reg(reg_name, 0).field(field_name).width
                 w_en_in = in_group & decoded_bit(f"off{offset}", lambda op: op.addr[:stride_bits] == offset, g)
-                w_en = landing(w_en_in, 1, f"ram_{name}_we_g{g}")
-                resets = [0] * D
-                for s, ch in enumerate(members):
-                    resets[s] = rmap.reg(reg_name, ch).field(field_name).reset
-                mem = Memory(shape=width, depth=D, init=resets, attrs={"ram_style": "distributed"})
-                m.submodules[f"ram_{name}_g{g}"] = mem
-                wp = mem.write_port()
                 land = land_field[(rmap.reg(reg_name, members[0]).addr, field_name)]
-                m.d.comb += [wp.en.eq(w_en), wp.addr.eq(w_slot), wp.data.eq(land)]
-                # the slots unwritten since reset, and the same a clock ahead,
-                # from the landing's inputs (from the landing's registers, the
-                # write enable -> the next fresh bits -> the engine's
-                # use-reset flag was the 64-channel build's worst path, 7.7 ns)
-                fresh = Signal(D, init=(1 << len(members)) - 1, name=f"ram_{name}_fresh_g{g}")
-                fresh_ahead = Signal(D, init=(1 << len(members)) - 1, name=f"ram_{name}_fresh_ahead_g{g}")
-                m.d.sync += [fresh_ahead.eq(fresh_ahead & ~Mux(w_en_in, w_onehot_in, 0)),
-                             fresh.eq(fresh_ahead)]
+                raw_read, fresh, fresh_ahead, reset_of, resets = slot_ram(
+                    g, members, name, reg_name, field_name, w_en_in, w_slot, w_onehot_in, land)
                 fresh_of[name] = fresh
-                reset_of = Array(Const(v, width) for v in resets)
-
-                def raw_read(slot, mem=mem):
-                    rp = mem.read_port(domain="comb")
-                    m.d.comb += rp.addr.eq(slot)
-                    return rp.data
-
                 reads[name] = (raw_read, fresh, reset_of)
                 if name in SLOT_RAM_FIELDS:
                     # the engine's: whether the slot read next is unwritten
@@ -597,19 +614,35 @@ class RegisterFile(wiring.Component):
                         equal_parts(run[-32:], ~raw["crc"]))
             parts = landing(parts, len(parts), f"match_parts_g{g}")
             m_hit = landing(m_hit, 1, f"match_hit_q_g{g}")
-            group_match.append(landing(m_hit & parts.all(), 1, f"match_g{g}"))
+            matched = m_hit & parts.all()
+            group_match.append(landing(matched, 1, f"match_g{g}"))
+            # PLAYED: the CRC of a SWAP taken, into the group's RAM at the
+            # CTRL write's landing: the run's CRC (the group's copy, which no
+            # access changes until the next landing, TAKE_SPACING later), equal
+            # to the channel's CRC where the check matched; the enable from the
+            # landing's inputs: the group's CTRL write, its swap bit and the
+            # check's result.
+            w_slot, w_onehot_in = landing_slot[g]
+            before = at(g, wd - 1)
+            took = (group_hit[g] & decoded_bit(f"off{ctrl_offset}", lambda op: op.addr[:stride_bits] == ctrl_offset, g)
+                    & before.data[rmap.reg("CTRL", 0).field("swap").lsb] & matched)
+            raw_read, fresh, _, reset_of, _ = slot_ram(g, members, "played", "PLAYED", "crc", took, w_slot,
+                                                       w_onehot_in, ~run[-32:])
+            ram_reads[g]["played"] = (raw_read, fresh, reset_of)
         # only the addressed channel's group can match: each channel's command
         # takes its group's result (their OR, one register for every channel,
         # was a latest path of a 16-channel, 100 MS/s build, 6.5 ns)
         match_of = {ch: group_match[g] for g, members in enumerate(self._groups) for ch in members}
 
         # Per channel: what the engine reads, the applied tap, the command.
+        taps = []
         for l in range(N):
             ctrl = rmap.reg("CTRL", l)
             rg = self.regs[l]
             d = rmap.reg("DELAY", l)
             lnd = land_data[l]
             tap = Signal(rg.tap.shape(), init=d.fields[0].reset, name=f"tap{l}")
+            taps.append(tap)
             with m.If(land_apply[l]):
                 m.d.sync += tap.eq(storage[("DELAY", l, "delay")])
             # A CTRL write leaves a command for the channel's next visit; the
@@ -687,13 +720,16 @@ class RegisterFile(wiring.Component):
             hooks_stored[("POOL_CHECK_CRC", None, "crc")] = self.check_crc
         for l in range(N):
             hooks_stored[("CTRL", l, "rejected")] = rejected[l]
+            hooks_stored[("DELAY", l, "applied")] = taps[l]
+        hooks_stored[("COMMON_DELAY", None, "applied")] = applies
 
         def stored(key, f):
             if key in storage and f.access == "rw":
                 return storage[key]
             if key in hooks_stored:
                 return hooks_stored[key]
-            if f.access == "ro" and key not in hooks_mirror and key not in hooks_status:
+            if (f.access == "ro" and key not in hooks_mirror and key not in hooks_status
+                    and (key[0], key[2]) not in READ_BACK_RAM.values()):
                 return Const(f.reset, f.width)
             return None
 
@@ -723,22 +759,21 @@ class RegisterFile(wiring.Component):
             # each field's hit (the range compare and the offset's in one
             # clock were among the 64-channel build's late paths, 6.2 ns)
             in_ram = decoded(lambda op, members=members: _within(op.addr, *ram_range(members)), 1, "rd_in_ram", g)
-            for name, (reg_name, field_name) in RAM_FIELDS.items():
+            for name, (reg_name, field_name) in READ_BACK_RAM.items():
                 f = rmap.reg(reg_name, 0).field(field_name)
-                if f.access == "rw":
-                    offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
-                    raw_read, fresh, reset_of = ram_reads[g][name]
-                    rd_slot = {what: kept_register(m, platform, rd_slot_of, f"rd_slot_{name}_{what}_g{g}")
-                               for what in ("use_reset", "reset", "ram")}
-                    parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}")
-                                for v, what in zip((fresh.bit_select(rd_slot["use_reset"], 1),
-                                                    reset_of[rd_slot["reset"]], raw_read(rd_slot["ram"])),
-                                                   ("use_reset", "reset", "ram"))]
-                    word = Mux(*parts_of)
-                    word = landing(word, word.shape(), f"rd_{name}_g{g}")
-                    ram_words.append((f"{name}_g{g}", g,
-                                      lambda op, in_ram=in_ram, offset=offset: in_ram & (op.addr[:stride_bits] == offset),
-                                      (word.as_unsigned() << f.lsb)[:32]))
+                offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
+                raw_read, fresh, reset_of = ram_reads[g][name]
+                rd_slot = {what: kept_register(m, platform, rd_slot_of, f"rd_slot_{name}_{what}_g{g}")
+                           for what in ("use_reset", "reset", "ram")}
+                parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}")
+                            for v, what in zip((fresh.bit_select(rd_slot["use_reset"], 1),
+                                                reset_of[rd_slot["reset"]], raw_read(rd_slot["ram"])),
+                                               ("use_reset", "reset", "ram"))]
+                word = Mux(*parts_of)
+                word = landing(word, word.shape(), f"rd_{name}_g{g}")
+                ram_words.append((f"{name}_g{g}", g,
+                                  lambda op, in_ram=in_ram, offset=offset: in_ram & (op.addr[:stride_bits] == offset),
+                                  (word.as_unsigned() << f.lsb)[:32]))
         end = self.read_latency - 1
         results = []
         for delay, pick in parts:

@@ -29,7 +29,7 @@ from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT
                          INTERP_FRAC_BITS, PHASE_FRAC_BITS, COMMON_LAG, WINDOW_LAG,
                          STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
                          FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate, pack_iq, unpack_iq)
-from .regmap import register_map, stream_crc32
+from .regmap import register_map, stream_crc32, APPLIED_LSB
 from .powerup import ChannelInit, pool_contents
 
 __all__ = ["cmult", "gain_scale", "interpolate_words", "fir_table", "stream_words",
@@ -158,6 +158,8 @@ class ReplayModel:
         self.run_start, self.run_count, self.run_crc = 0, 0, 0
         self._count_max = (1 << c.length_width) - 1
         self.crc_next = [0] * N
+        # PLAYED: the CRC-32 of the stream of the last SWAP taken
+        self.crc_played = [self.rmap.reg("PLAYED", l).field("crc").reset for l in range(N)]
         # whether BASE, LENGTH and CRC were each written since power-up: a
         # SWAP is checked against values the host stated (docs/registers.md)
         self._stated = [set() for _ in range(N)]
@@ -210,6 +212,8 @@ class ReplayModel:
                         and self.run_start == self.base_next[l] and self.run_count == self.len_next[l]
                         and self.run_crc == self.crc_next[l])
                 self.rejected[l] = int(not swap)
+                if swap:
+                    self.crc_played[l] = self.crc_next[l]
             if not self.enable[l] and (swap or self.pending[l]):
                 self._swap(l)
             elif swap:
@@ -263,8 +267,10 @@ class ReplayModel:
             v, self.overflow = self.overflow, 0
             return v
         stored = {"LENGTH": lambda: self.len_next[l], "PHASE_INC": lambda: self.inc_next[l],
-                  "GAIN": lambda: self.gain[l], "DELAY": lambda: self.delay_next[l],
-                  "COMMON_DELAY": lambda: self.common_next,
+                  "GAIN": lambda: self.gain[l],
+                  "DELAY": lambda: self.delay_next[l] | self.delay_act[l] << APPLIED_LSB,
+                  "COMMON_DELAY": lambda: self.common_next | self.common_act << APPLIED_LSB,
+                  "PLAYED": lambda: self.crc_played[l],
                   "BASE": lambda: self.base_next[l], "STREAM_ADDR": lambda: self.stream_addr,
                   "STREAM_CRC": lambda: self.run_crc,
                   "STREAM_COUNT": lambda: self.run_count, "POOL_CHECK_CRC": lambda: self.check_crc}

@@ -184,8 +184,10 @@ class HostBridge:
         return struct.unpack("<I", self._read_exact(4, "the bridge version"))[0]
 
     def resync(self, quiet_s=0.05, drain=None):
-        """Stay silent longer than the bridge timeout, then discard stale replies."""
+        """Stay silent longer than the bridge timeout, then discard stale replies
+        (``drain``, default the transport's ``reset_input_buffer`` if it has one)."""
         time.sleep(quiet_s)
+        drain = drain or getattr(self.transport, "reset_input_buffer", None)
         if drain is not None:
             drain()
         self._unacked = 0

@@ -28,7 +28,7 @@ from .powerup import ChannelInit
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
            "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
-           "CRC32_POLY", "stream_crc32"]
+           "CRC32_POLY", "stream_crc32", "APPLIED_LSB"]
 
 ID_VALUE = 0x52415354          # "RAST"
 CHANNEL_BASE = 0x10
@@ -41,6 +41,8 @@ CTRL_REJECTED = 1 << 3
 STORED = ("rw", "w")
 #: CRC-32 of IEEE 802.3 / zlib, reflected polynomial (the gateware derives its update from it).
 CRC32_POLY = 0xEDB88320
+#: Bit of COMMON_DELAY and DELAY[l] where the value in effect (``applied``) is read.
+APPLIED_LSB = 16
 
 
 def stream_crc32(words, crc: int = 0) -> int:
@@ -160,7 +162,10 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                               min(max(int(common_delay), 0), c.max_delay),
                                               "delay of the line all channels share, samples "
                                               f"(0..{c.max_delay}), takes effect on APPLY",
-                                              clamp=(0, c.max_delay)),),
+                                              clamp=(0, c.max_delay)),
+                                        Field("applied", APPLIED_LSB, _bits(c.max_delay), "ro",
+                                              min(max(int(common_delay), 0), c.max_delay),
+                                              "the common delay in effect (the last APPLY's)")),
                  "common delay: up to the nearest turbine"),
         Register("STREAM_ADDR", 0x06, (Field("addr", 0, c.pool_address_width, "rw", 0,
                                              "pool word address; +1 (mod pool) after each STREAM_DATA"),),
@@ -240,7 +245,9 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                      "written before input k: from output k (docs/fixed_point.md, Alignment)", ch),
             Register("DELAY", base + 4, (Field("delay", 0, _bits(maxd), "rw", min(ini.delay, maxd),
                                                f"tap of this channel in the window, samples (0..{maxd}), "
-                                               "takes effect on APPLY", clamp=(0, maxd)),),
+                                               "takes effect on APPLY", clamp=(0, maxd)),
+                                         Field("applied", APPLIED_LSB, _bits(maxd), "ro", min(ini.delay, maxd),
+                                               "the tap in effect (the last APPLY's)")),
                      "tap: delay beyond COMMON_DELAY", ch),
             Register("BASE", base + 5, (Field("base", 0, c.pool_address_width, "rw",
                                               ini.base & ((1 << c.pool_address_width) - 1),
@@ -253,6 +260,11 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                              "are STREAM_ADDR's start and STREAM_COUNT, all three "
                                              "written since power-up; reads 0"),),
                      "checked at the switch", ch),
+            Register("PLAYED", base + 7, (Field("crc", 0, 32, "ro", stream_crc32(ini.words) if ini.words else 0,
+                                                "CRC-32 of the stream of the last SWAP taken: the stream "
+                                                "the channel plays once CTRL.swap reads 0 (at power-up, "
+                                                "its initial stream's)"),),
+                     "what the channel plays: a load is done when it reads the CRC sent", ch),
         ]
     return RegisterMap(c, regs)
 

@@ -57,10 +57,16 @@ def read_build(path):
     build = report.get("build") if isinstance(report, dict) else None
     _need(isinstance(build, dict), str(path), "has no 'build' section: give the report.json "
           "that `rast build` wrote for the bitstream")
+    missing = [k for k in ReplayContract.PARAMETERS if k not in build]
+    _need(not missing, str(path), f"its 'build' section lacks {', '.join(missing)}: give the report.json "
+          "that `rast build` wrote for the bitstream")
     try:
-        return ReplayContract.from_dict(build)
+        contract = ReplayContract.from_dict(build)
     except (TypeError, ValueError) as error:
         raise UserError(f"{path}: its 'build' section is not a replay block: {error}") from None
+    _need(contract.sample_rate_hz > 0, str(path), "its 'build' section states no sample rate "
+          "(sample_rate_hz 0): it is not a bitstream's report")
+    return contract
 
 
 def read_manifest(path) -> tuple[dict, Path]:
@@ -82,12 +88,17 @@ def read_manifest(path) -> tuple[dict, Path]:
     windmills = manifest.get("windmills")
     _need(isinstance(windmills, list) and windmills, where, "has no 'windmills' list")
     names = {}
+    # rast-manifest/2 and later carry every stream's CRC-32: one without it was edited
+    with_crc = isinstance(manifest.get("format"), str) and manifest["format"].startswith("rast-manifest/") \
+        and manifest["format"] != "rast-manifest/1"
     for k, w in enumerate(windmills):
         at = f"{where}: windmills[{k}]"
         _need(isinstance(w, dict), at, "is not an object")
         for key, kind in (("name", str), ("hex_file", str)):
             _need(isinstance(w.get(key), kind), at, f"lacks the text '{key}'")
         _need(_is_int(w.get("length")) and w["length"] >= 1, at, "lacks a positive integer 'length'")
+        _need("crc32" in w or not with_crc, at, f"lacks its 'crc32', which every {manifest['format']} "
+              "stream carries: the manifest was edited; run 'rast stream' again")
         _need("crc32" not in w or (_is_int(w["crc32"]) and 0 <= w["crc32"] <= 0xFFFFFFFF), at,
               f"has a 'crc32' that is not a 32-bit unsigned integer: {w.get('crc32')!r}")
         names[w["name"]] = w
@@ -148,14 +159,23 @@ def check_output(path, *, folder: bool, option: str) -> Path:
     """Refuse an output ``path`` that cannot be created, before anything is written.
 
     ``folder``: the output is a folder (it may exist) rather than a file (it
-    may exist as a file, and is replaced). ``option`` names the argument.
+    may exist as a regular file, and is replaced; a device, FIFO or folder in
+    its place is refused: ``rast.model.outputs``). ``option`` names the argument.
     """
+    from rast.model.outputs import OutputError, check_target
+    if not str(path).strip():
+        raise UserError(f"{option} is empty: give a {'folder' if folder else 'file'} name")
     path = Path(path)
-    if path.exists():
+    if path.exists() or path.is_symlink():
         if folder and not path.is_dir():
             raise UserError(f"{option} {path} exists and is not a folder")
-        if not folder and path.is_dir():
-            raise UserError(f"{option} {path} is a folder, not a file")
+        if not folder:
+            if path.is_dir():
+                raise UserError(f"{option} {path} is a folder, not a file")
+            try:
+                check_target(path)
+            except OutputError as error:
+                raise UserError(f"{option} {error}") from None
     parent = path if folder else path.parent
     ancestor = parent
     while not ancestor.exists():

@@ -26,12 +26,13 @@ import time
 from rast.errors import UserError, manifest_streams, read_manifest
 from rast.model.fixedpoint import INTERPOLATIONS, ReplayContract
 from rast.model.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, ProtocolError, line_bytes
-from rast.model.regmap import ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED
+from rast.model.regmap import ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED, APPLIED_LSB
 from rast.model.datapath import ONE
 from rast.model.loadplan import NoRoomBeside, manifest_to_register_writes
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
-           "send_writes", "read_status", "verify_pool", "stream_runs", "playing_streams", "LoadError"]
+           "send_writes", "read_status", "verify_pool", "stream_runs", "playing_streams", "stream_segments",
+           "LoadError", "RETRIES"]
 
 _GLOBAL = register_map(ReplayContract(channels=1))
 
@@ -109,6 +110,9 @@ def plan_writes(manifest, contract, words=None, playing=None):
                         f"{contract.latency}): {error}") from None
 
 
+#: Longest a write to the serial port may block (the board not reading) before
+#: ``rast load`` gives up: 3 Mbaud moves a 64 KB burst in 0.2 s.
+WRITE_TIMEOUT_S = 5.0
 #: The longest ``rast load`` waits for switches an earlier load left pending
 #: (each is taken at its old stream's period boundary) before a live load.
 PENDING_WAIT_S = 30.0
@@ -143,23 +147,55 @@ def playing_streams(bridge, contract, wait=time.sleep, timeout_s=PENDING_WAIT_S)
     return regions, switch_s
 
 
+#: Times ``rast load`` sends again what did not take effect (a frame lost or
+#: damaged on the line) before it gives up and names what failed.
+RETRIES = 2
+#: Longest ``rast load`` waits for a switch beyond the longest stream period.
+SWITCH_MARGIN_S = 1.0
+
+
 def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress=None, verify=False,
                   wait=time.sleep, live=True):
     """Write the manifest in ``manifest_dir`` into the block, live (beside the
     streams playing, :func:`playing_streams`) when ``live`` and they fit, else
-    muted; verify by reading back the registers (and with ``verify`` the
-    streams, out of an SDRAM pool: :func:`verify_pool`, ``wait`` as there).
+    muted, and see it take effect (:func:`send_writes`): every register read
+    back, every switch taken (the channel's bank toggled, its PLAYED CRC the
+    stream's), the delays in effect; what did not take effect is sent again,
+    RETRIES times. A conversation the line broke (a frame lost or damaged,
+    :class:`ProtocolError`) is resynchronised and the load made again, as
+    often. With ``verify`` the streams are then read back out of an SDRAM
+    pool (:func:`verify_pool`, ``wait`` as there).
 
     Returns a dict of what was done (``live``: whether the load was, and if
     not, ``muted_why``; ``switch_s``: the longest a playing channel may take
-    to reach its switch). Raises :class:`rast.errors.UserError` for a
-    missing, malformed or unfitting manifest (before any write) and
-    :class:`LoadError` on a read-back mismatch or a refused switch."""
+    to reach its switch; ``retries``: what was sent again). Raises
+    :class:`rast.errors.UserError` for a missing, malformed or unfitting
+    manifest (before any write) and :class:`LoadError` when the block does
+    not take the load, naming the channels."""
     manifest, words = read_manifest_dir(manifest_dir, streams)
     contract = contract or read_contract(bridge)
     if verify:
         _require_read_back(contract)                 # before anything is written
-    writes = plan_writes(manifest, contract, words)  # refuses a manifest that does not fit at all
+    plan_writes(manifest, contract, words)           # refuses a manifest that does not fit at all
+    for attempt in range(RETRIES + 1):
+        try:
+            res = _load_once(bridge, manifest, words, contract, progress, wait, live)
+            break
+        except ProtocolError as error:
+            if attempt == RETRIES:
+                raise LoadError(f"the line broke the conversation {RETRIES + 1} times (last: {error}); "
+                                "the load did not finish: check the cable and load again") from None
+            bridge.resync()
+    res["line_retries"] = attempt
+    if verify:
+        res.update(verify_pool(bridge, contract, res.pop("plan"), wait))
+    else:
+        res.pop("plan")
+    return res
+
+
+def _load_once(bridge, manifest, words, contract, progress, wait, live):
+    writes = plan_writes(manifest, contract, words)
     playing, why, switch_s = None, "as --muted asks", 0.0
     if words is not None and live:
         playing, switch_s = playing_streams(bridge, contract, wait)
@@ -171,57 +207,193 @@ def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress
         except NoRoomBeside as no_room:
             playing, why = None, str(no_room)
     res = send_writes(bridge, writes, contract, progress, channels=len(manifest["registers"]["channels"]),
-                      playing=playing)
+                      playing=playing, wait=wait, switch_s=switch_s)
     res["line_bytes"] = line_bytes(writes)
+    res["plan"] = writes
     if words is not None:
         res["live"] = playing is not None
         res["muted_why"] = why
         res["switch_s"] = switch_s if playing is not None else 0.0
-    if verify:
-        res.update(verify_pool(bridge, contract, writes, wait))
     return res
 
 
-def send_writes(bridge, writes, contract, progress=None, *, channels=None, playing=None):
-    """Send ``writes`` and read every written register back (:class:`LoadError` on a mismatch,
-    or on a refused switch). In a live load (``playing``: per channel its old stream's
-    ``(base, length, increment)`` or ``None``) a refused channel goes on with its old
-    stream, and BASE, LENGTH and PHASE_INC are written back to name it (what the next
-    live load reads); otherwise it is disabled, as its old words may be overwritten."""
+def _read_twice(bridge, addr, want):
+    """The register's value, read again once when it is not ``want`` (a reply
+    damaged on the line is not taken for the block's state)."""
+    got = bridge.read(addr)
+    return got if got == want else bridge.read(addr)
+
+
+def stream_segments(writes, rmap):
+    """``[(channel, start, stop)]``: the stretches ``writes[start:stop]`` that
+    each load one stream into its channel (STREAM_ADDR, the words, BASE,
+    LENGTH, PHASE_INC, CRC and the channel's writes after them up to the next
+    stream or another register), in order."""
+    a_addr = rmap.addr("STREAM_ADDR")
+    segments, current = [], None
+    for k, (addr, _) in enumerate(writes):
+        r = rmap.by_addr(addr)
+        if addr == a_addr:
+            current = [None, k, k + 1]
+            segments.append(current)
+        elif current is not None and r is not None and (
+                r.name == "STREAM_DATA" or (r.channel is not None and current[0] in (None, r.channel))):
+            current[0] = r.channel if r.channel is not None else current[0]
+            current[2] = k + 1
+        else:
+            current = None
+    return [tuple(seg) for seg in segments if seg[0] is not None]
+
+
+def send_writes(bridge, writes, contract, progress=None, *, channels=None, playing=None, wait=time.sleep,
+                switch_s=0.0):
+    """Send ``writes`` and see them take effect, sending again what did not
+    (RETRIES times) and raising :class:`LoadError` for what still did not:
+
+    * each stream's STREAM_ADDR is read back before its words go (a damaged
+      address would put them over another stream);
+    * every register written is read back, and written again where it differs;
+    * every switch is taken: once no switch is pending (at most the longest
+      period ``switch_s``, and SWITCH_MARGIN_S more), each loaded channel's
+      bank has toggled and its PLAYED is the stream's CRC-32; a channel that
+      failed (its switch lost, or refused: CTRL.rejected, the words damaged)
+      gets its stream again;
+    * the delays are in effect (the ``applied`` fields), else APPLY is sent again.
+
+    In a live load (``playing``: per channel its old stream's ``(base,
+    length, increment)`` or ``None``) a channel whose switch still fails goes
+    on with its old stream, and BASE, LENGTH and PHASE_INC are written back
+    to name it (what the next live load reads); otherwise it is disabled, as
+    its old words may be overwritten."""
     rmap = register_map(contract)
+    a = rmap.addr
     t0 = time.monotonic()
-    bridge.write_many(writes, progress)
+    segments = stream_segments(writes, rmap)
+    banks = {ch: bridge.read(a("CTRL", ch)) >> 2 & 1 for ch, _, _ in segments}
+    retried = []
+
+    def send_segment(seg):
+        for _ in range(RETRIES + 1):
+            bridge.write(*seg[0])
+            if _read_twice(bridge, seg[0][0], seg[0][1]) == seg[0][1]:
+                break
+        else:
+            raise LoadError(f"STREAM_ADDR does not read back {seg[0][1]} after {RETRIES + 1} writes")
+        bridge.write_many(seg[1:])
+
+    # the writes in order, each stream's address checked before its words
+    k = 0
+    for _, start, stop in segments + [(None, len(writes), len(writes))]:
+        bridge.write_many(writes[k:start])
+        if start < stop:
+            send_segment(writes[start:stop])
+        k = stop
+        if progress:
+            progress(k, len(writes))
     dt = time.monotonic() - t0
-    mismatches = []
-    for addr, (r, v) in expected_readback(writes, rmap).items():
-        mask = sum(f.mask for f in r.fields if f.access == "rw")
-        got = bridge.read(addr) & mask
-        if got != v:
-            mismatches.append(f"{r.name}[{r.channel}] reads {got:#x}, wrote {v:#x}")
-    if mismatches:
-        raise LoadError("Read-back differs: " + "; ".join(mismatches))
-    # every switch asked for was taken: the words the block received had the CRC-32 sent
-    crc_channel = {rmap.addr("CRC", ch): ch for ch in range(contract.channels)}
-    crc_written = {crc_channel[a]: v for a, v in writes if a in crc_channel}
-    refused_channels = [ch for ch in sorted(crc_written) if bridge.read(rmap.addr("CTRL", ch)) & CTRL_REJECTED]
-    refused = [f"channel {ch} (CRC-32 {crc_written[ch]:#010x})" for ch in refused_channels]
-    if refused:
-        a = rmap.addr
-        for ch in refused_channels:
+
+    # every register written reads back what was written last
+    for attempt in range(RETRIES + 1):
+        wrong = {}
+        for addr, (r, v) in expected_readback(writes, rmap).items():
+            mask = sum(f.mask for f in r.fields if f.access == "rw")
+            got = bridge.read(addr) & mask
+            if got != v:                  # read again: a reply damaged on the line is no verdict
+                got = bridge.read(addr) & mask
+            if got != v:
+                wrong[addr] = (r, v, got)
+        if not wrong or attempt == RETRIES:
+            break
+        retried += [f"{r.name}[{r.channel}]" if r.channel is not None else r.name for r, _, _ in wrong.values()]
+        bridge.write_many([(addr, v) for addr, (r, v, _) in wrong.items()])
+    if wrong:
+        raise LoadError("Read-back differs after " + f"{RETRIES + 1} writes: " + "; ".join(
+            f"{r.name}[{r.channel}] reads {got:#x}, wrote {v:#x}" for r, v, got in wrong.values()))
+
+    # every switch taken: bank toggled, PLAYED the stream's CRC
+    crc_of = {ch: next(v for addr, v in writes[start:stop] if addr == a("CRC", ch)) for ch, start, stop in segments}
+    failed = {}
+    for attempt in range(RETRIES + 1):
+        _wait_for_switches(bridge, contract, [ch for ch, _, _ in segments], wait, switch_s)
+        failed = {}
+        for ch, _, _ in segments:
+            ctrl = bridge.read(a("CTRL", ch))
+            played = _read_twice(bridge, a("PLAYED", ch), crc_of[ch])
+            if ctrl & CTRL_REJECTED:
+                failed[ch] = "refused: the words it received differ from the stream"
+            elif played != crc_of[ch]:
+                failed[ch] = f"not switched: it plays the stream of CRC-32 {played:#010x}"
+            elif (ctrl >> 2 & 1) == banks[ch]:
+                failed[ch] = "not switched: its bank did not toggle"
+        if not failed or attempt == RETRIES:
+            break
+        for ch, start, stop in segments:
+            if ch in failed:
+                banks[ch] = bridge.read(a("CTRL", ch)) >> 2 & 1
+                retried.append(f"channel {ch}'s stream ({failed[ch]})")
+                send_segment(writes[start:stop])
+    if failed:
+        for ch in failed:
             old = playing[ch] if playing is not None else None
             if old is None:
                 bridge.write(a("CTRL", ch), 0)
             else:
                 bridge.write_many([(a("BASE", ch), old[0]), (a("LENGTH", ch), old[1]),
                                    (a("PHASE_INC", ch), old[2])])
-        raise LoadError("The block refused the stream of " + ", ".join(refused) + ": the words it "
-                        "received differ from the stream (a word lost or damaged on the line); "
-                        + ("those channels go on as before the load, with their old streams"
-                           if playing is not None else
-                           "those channels are off (their old streams may be overwritten)")
-                        + ". Load again.")
-    n_words = sum(1 for a, _ in writes if a == rmap.addr("STREAM_DATA"))
-    return {"writes": len(writes), "stream_words": n_words, "seconds": dt, "channels": channels}
+        raise LoadError(
+            "The block did not take the stream of " + ", ".join(
+                f"channel {ch} (CRC-32 {crc_of[ch]:#010x}: {why})" for ch, why in failed.items())
+            + f" after {RETRIES + 1} tries (a word lost or damaged on the line each time); "
+            + ("those channels go on as before the load, with their old streams"
+               if playing is not None else "those channels are off (their old streams may be overwritten)")
+            + ". Load again.")
+
+    # the delays in effect: APPLY taken
+    last = {addr: v for addr, v in writes if getattr(rmap.by_addr(addr), "name", None) in ("DELAY", "COMMON_DELAY")}
+    for attempt in range(RETRIES + 1):
+        late = [addr for addr, v in last.items()
+                if _read_twice(bridge, addr, _applied_word(rmap, addr, v)) >> APPLIED_LSB
+                != _field_value(rmap, addr, v)]
+        if not late or attempt == RETRIES:
+            break
+        retried.append("APPLY")
+        bridge.write(a("APPLY"), 1)
+        bridge.flush()
+    if late:
+        raise LoadError("The delays did not take effect after " f"{RETRIES + 1} APPLY writes: "
+                        + "; ".join(_name(rmap, addr) for addr in late))
+    n_words = sum(1 for addr, _ in writes if addr == a("STREAM_DATA"))
+    return {"writes": len(writes), "stream_words": n_words, "seconds": dt, "channels": channels,
+            "retries": retried}
+
+
+def _field_value(rmap, addr, value):
+    """The delay field of a write to DELAY or COMMON_DELAY, clamped as the block does."""
+    f = rmap.by_addr(addr).field("delay")
+    v = value >> f.lsb & ((1 << f.width) - 1)
+    return min(max(v, f.clamp[0]), f.clamp[1]) if f.clamp else v
+
+
+def _applied_word(rmap, addr, value):
+    v = _field_value(rmap, addr, value)
+    return v | v << APPLIED_LSB
+
+
+def _name(rmap, addr):
+    r = rmap.by_addr(addr)
+    return r.name if r.channel is None else f"{r.name}[{r.channel}]"
+
+
+def _wait_for_switches(bridge, contract, channels, wait, switch_s):
+    """Poll CTRL until no switch of ``channels`` is pending, at most the
+    longest period ``switch_s`` and SWITCH_MARGIN_S more."""
+    a = register_map(contract).addr
+    waited = 0.0
+    while any(bridge.read(a("CTRL", ch)) >> 1 & 1 for ch in channels):
+        if waited > switch_s + SWITCH_MARGIN_S:
+            return
+        wait(0.05)
+        waited += 0.05
 
 
 #: Polls of POOL_CHECK's busy bit, after the longest a read-back may take,
@@ -294,7 +466,8 @@ def read_status(bridge, contract):
         st["channels"].append({"enable": ctrl & CTRL_ENABLE, "swap_pending": ctrl >> 1 & 1,
                                "bank": ctrl >> 2 & 1, "rejected": ctrl >> 3 & 1,
                                "gain": bridge.read(rmap.addr("GAIN", ch)),
-                               "delay": bridge.read(rmap.addr("DELAY", ch))})
+                               "delay": bridge.read(rmap.addr("DELAY", ch)) >> APPLIED_LSB,
+                               "played": bridge.read(rmap.addr("PLAYED", ch))})
     return st
 
 
@@ -323,7 +496,8 @@ def _print_status(st):
              if st["underflow"] else ""))
     for k, ch in enumerate(st["channels"]):
         print(f"  channel {k}: {'on ' if ch['enable'] else 'off'} bank {ch['bank']} "
-              f"gain {ch['gain']:#07x} delay {ch['delay']}{' (swap pending)' if ch['swap_pending'] else ''}"
+              f"gain {ch['gain']:#07x} delay {ch['delay']} stream CRC-32 {ch['played']:#010x}"
+              f"{' (swap pending)' if ch['swap_pending'] else ''}"
               f"{' (last switch refused: stream CRC-32)' if ch['rejected'] else ''}")
 
 
@@ -339,7 +513,7 @@ def run(args) -> int:
     if not args.status:          # a bad manifest is refused before the port is opened
         read_manifest_dir(args.manifest_dir, streams=not args.no_streams)
     try:
-        port = serial.Serial(args.port, args.baud, timeout=1.0)
+        port = serial.Serial(args.port, args.baud, timeout=1.0, write_timeout=WRITE_TIMEOUT_S)
     except (serial.SerialException, ValueError) as error:   # ValueError: a rate the port refuses
         why = os.strerror(error.errno) if getattr(error, "errno", None) else str(error)
         raise UserError(f"cannot open the serial port {args.port}: {why}") from None
@@ -358,7 +532,13 @@ def run(args) -> int:
                 print(f"\nloaded {res['channels']} windmill(s), {res['stream_words']} stream words "
                       f"in {res['seconds']:.1f} s ({rate / 1e3:.1f} k words/s, "
                       f"{res['line_bytes'] * 10 / args.baud:.1f} s of line time at {args.baud} baud); "
-                      f"read-back matches, every stream's CRC-32 checked by the block")
+                      f"every register reads back what was written, every switch taken (bank toggled, "
+                      f"PLAYED = the stream's CRC-32, checked by the block), the delays in effect")
+                if res["retries"] or res["line_retries"]:
+                    print(f"sent again after the line lost or damaged them: "
+                          f"{', '.join(res['retries']) or ''}"
+                          + (f"{'; ' if res['retries'] else ''}the whole load {res['line_retries']} time(s)"
+                             if res["line_retries"] else ""))
                 if res.get("live"):
                     refill = contract.refill_samples
                     print(f"live: no channel turned off; each playing channel switches at its old "
@@ -371,6 +551,10 @@ def run(args) -> int:
                     print(f"read {res['verified_words']} stream words back out of the SDRAM in "
                           f"{res['verify_seconds']:.1f} s: every stream's CRC-32 matches")
             _print_status(read_status(bridge, contract))
+    except serial.SerialTimeoutException:
+        print(f"rast load: the board stopped reading: nothing could be written to {args.port} for "
+              f"{WRITE_TIMEOUT_S:g} s; the load did not finish (reset the board, load again)", file=sys.stderr)
+        return 1
     except (LoadError, ProtocolError, ValueError, OSError) as e:
         print(f"rast load: {e}", file=sys.stderr)
         return 1

@@ -10,6 +10,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from rast.cli import main
@@ -53,7 +54,7 @@ def write_manifest(folder, lengths=(3,), delays=(100,), increment=1 << 31):
     for k, (n, d) in enumerate(zip(lengths, delays)):
         words = pack_iq(list(range(100, 100 + n)), [0] * n)
         (folder / f"w{k}.hex").write_text("".join(f"{int(w):08x}\n" for w in words))
-        wms.append({"name": f"w{k}", "hex_file": f"w{k}.hex", "length": n})
+        wms.append({"name": f"w{k}", "hex_file": f"w{k}.hex", "length": n, "crc32": stream_crc32(words)})
         chans.append({"windmill": f"w{k}", "enable": 1, "length": n, "phase_increment": increment,
                       "gain": 1 << 16, "delay_samples": d})
     manifest = {"format": "rast-manifest/2", "windmills": wms, "registers": {"channels": chans}}
@@ -438,18 +439,24 @@ def test_load_manifest_that_does_not_fit_writes_nothing(tmp_path, capsys, monkey
 
 
 def _model_port(monkeypatch, contract):
-    """serial.Serial replaced by a board that answers from the bit-exact model."""
+    """serial.Serial replaced by a board that answers from the bit-exact model,
+    on which time passes: 5000 samples for every reply read."""
     import serial
     from rast.model.datapath import ReplayModel
     from rast.sim.uart_chain import ModelBoard
     board = ModelBoard(ReplayModel(contract))
+    quiet = np.zeros(5000, dtype=np.int64)
 
     class Port:
         def __init__(self, *args, **kwargs): pass
         def __enter__(self): return self
         def __exit__(self, *exc): return False
         def write(self, data): board.write(data)
-        def read(self, n): return board.read(n)
+
+        def read(self, n):
+            board.model.run(quiet, quiet)
+            return board.read(n)
+
         def reset_input_buffer(self): pass
     monkeypatch.setattr(serial, "Serial", Port)
     return board
@@ -485,7 +492,8 @@ def test_load_says_whether_it_was_live_or_muted(tmp_path, capsys, monkeypatch):
     # the second load went beside the first, whose longest period is 9 words at 2**-12 word a sample
     assert "live: no channel turned off; each playing channel switches at its old stream's next " \
            "period boundary, within 0.04 s, then refills its word cache for" in out
-    assert board.model.pending == [1, 1]
+    # done once both switched: a bank each, and the second load's streams
+    assert board.model.pending == [0, 0] and board.model.bank == [0, 0] and board.model.base_act == [17, 27]
     assert main(["load", str(tmp_path / "a"), "--port", "fake", "--muted"]) == 0
     assert "muted: every channel was off during the load (as --muted asks)" in capsys.readouterr().out
     assert board.model.pending == [0, 0] and board.model.base_act == [0, 8]

@@ -610,11 +610,13 @@ def test_random_register_stress(seed, slots):
         elif r == 6:
             ops.append((k, "w", a("GAIN", l), int(rng.integers(1 << 16, 1 << 17))))
         elif r == 7:
-            ops += [(k, "r", a("STATUS"), 0), (k, "r", a("STREAM_CRC"), 0), (k, "r", a("STREAM_COUNT"), 0)]
+            ops += [(k, "r", a("STATUS"), 0), (k, "r", a("STREAM_CRC"), 0), (k, "r", a("STREAM_COUNT"), 0),
+                    (k, "r", a("COMMON_DELAY"), 0)]
         elif r == 8:
-            ops.append((k, "r", a("CTRL", l), 0))
+            # what the channel plays: its bank, the CRC of the last SWAP taken, the tap in effect
+            ops += [(k, "r", a("CTRL", l), 0), (k, "r", a("PLAYED", l), 0), (k, "r", a("DELAY", l), 0)]
         else:
-            name = str(rng.choice(["DELAY", "APPLY"]))
+            name = str(rng.choice(["DELAY", "APPLY", "COMMON_DELAY"]))
             ops.append((k, "w", a(name, l if name == "DELAY" else None), int(rng.integers(0, 8))))
     check(dut, inits, xi, xq, ops, valid=(1, 1, 0), ready=(1, 1, 1, 0), name=f"stress {seed}")
 

@@ -9,11 +9,11 @@ import json
 import numpy as np
 import pytest
 
-from rast.load import LoadError, load_manifest
+from rast.load import RETRIES, LoadError, load_manifest, plan_writes, read_manifest_dir
 from rast.model.datapath import ONE, ReplayModel
 from rast.model.fixedpoint import ReplayContract, pack_iq
 from rast.model.hostproto import HostBridge
-from rast.model.regmap import CTRL_ENABLE
+from rast.model.regmap import CTRL_ENABLE, stream_crc32
 from rast.sim.uart_chain import ModelBoard
 
 FS = 1_000_000
@@ -79,7 +79,7 @@ def farm(folder, lengths, seed):
     for k, n in enumerate(lengths):
         w = pack_iq(rng.integers(-20000, 20000, n), rng.integers(-20000, 20000, n))
         (folder / f"w{k}.hex").write_text("".join(f"{int(x):08x}\n" for x in w))
-        wms.append({"name": f"w{k}", "hex_file": f"w{k}.hex", "length": n})
+        wms.append({"name": f"w{k}", "hex_file": f"w{k}.hex", "length": n, "crc32": stream_crc32(w)})
         chans.append({"windmill": f"w{k}", "enable": 1, "length": n, "phase_increment": INC,
                       "gain": 1 << 16, "delay_samples": 100 + 2 * k})
         words.append([int(x) for x in w])
@@ -100,13 +100,13 @@ def test_a_reload_that_fits_beside_the_playing_streams_mutes_nothing(tmp_path):
     assert first["live"] and first["switch_s"] == 0.0         # nothing played yet: switched at once
     b.play(500)
     assert [playing(b.model, ch) for ch in range(3)] == a_words
+    steps = b.model.steps
     res = b.load(tmp_path / "b")
-    assert res["live"] and res["muted_why"] is None
+    assert res["live"] and res["muted_why"] is None and res["retries"] == []
     assert b.model.mutes == 0
     assert res["switch_s"] == pytest.approx(50 * ONE / INC / FS)       # the longest old period
-    assert all(b.model.pending) and [playing(b.model, ch) for ch in range(3)] == a_words
-    b.play(period(50) + 10)                                        # one old period and a little
-    assert not any(b.model.pending)
+    # done only once every channel switched: the load waited for the old periods to end
+    assert not any(b.model.pending) and b.model.steps > steps
     assert [playing(b.model, ch) for ch in range(3)] == b_words
 
 
@@ -122,30 +122,59 @@ def test_a_reload_without_room_beside_is_muted_and_says_why(tmp_path):
     assert [playing(b.model, ch) for ch in range(3)] == b_words and not any(b.model.pending)
 
 
+def damage_word(board, word, times):
+    """The line flips bit 9 of stream word ``word`` the first ``times`` times it
+    is sent (the frame still well formed: the block refuses the switch by the
+    stream's CRC-32)."""
+    apply, seen = board.transport._apply, []
+
+    def damage(addr, value):
+        if addr == board.model.rmap.addr("STREAM_DATA") and value == word and len(seen) < times:
+            seen.append(value)
+            value ^= 1 << 9
+        apply(addr, value)
+    board.transport._apply = damage
+    return seen
+
+
+@pytest.mark.parametrize("live", [True, False])
+def test_a_switch_refused_once_is_sent_again_and_taken(tmp_path, live):
+    """One word of channel 1's new stream damaged on the line once: the block
+    refuses the switch, rast load sends the stream again, and the load is done
+    with channel 1 on its new stream, saying what it sent again."""
+    b = Board()
+    farm(tmp_path / "a", (40, 50, 30), seed=1)
+    b_words = farm(tmp_path / "b", (45, 35, 50), seed=2)
+    b.load(tmp_path / "a")
+    b.play(500)
+    seen = damage_word(b, b_words[1][7], times=1)
+    b.model.watching = live
+    res = b.load(tmp_path / "b", live=live)
+    assert len(seen) == 1 and res["retries"] == ["channel 1's stream (refused: the words it received differ "
+                                                 "from the stream)"]
+    assert not any(b.model.pending) and not any(b.model.rejected)
+    assert [playing(b.model, ch) for ch in range(3)] == b_words
+
+
 @pytest.mark.parametrize("live", [True, False])
 def test_a_refused_switch_leaves_the_channel_as_the_load_says(tmp_path, live):
-    """One word of channel 1's new stream is damaged on the line: live, the channel
-    goes on with its old stream and its registers name it again; muted, it is off."""
+    """One word of channel 1's new stream is damaged on the line every time it
+    is sent: after RETRIES more tries rast load gives up naming the channel;
+    live, the channel goes on with its old stream and its registers name it
+    again; muted, it is off."""
     b = Board()
     a_words = farm(tmp_path / "a", (40, 50, 30), seed=1)
     b_words = farm(tmp_path / "b", (45, 35, 50), seed=2)
     b.load(tmp_path / "a")
     b.play(500)
-    seen = []
-    apply = b.transport._apply
-
-    def damage(addr, value):
-        if addr == b.model.rmap.addr("STREAM_DATA"):
-            seen.append(addr)
-            if len(seen) == 45 + 7:                            # channel 1's eighth word
-                value ^= 1 << 9
-        apply(addr, value)
-    b.transport._apply = damage
+    seen = damage_word(b, b_words[1][7], times=RETRIES + 1)
     if not live:
         b.model.watching = False
-    with pytest.raises(LoadError, match="channel 1 .*" + ("go on as before the load, with their old streams" if live
-                                                           else "those channels are off")):
+    with pytest.raises(LoadError, match=f"channel 1 .* after {RETRIES + 1} tries .*"
+                                        + ("go on as before the load, with their old streams" if live
+                                           else "those channels are off")):
         b.load(tmp_path / "b", live=live)
+    assert len(seen) == RETRIES + 1
     b.play(period(50) + 10)
     a = b.model.rmap.addr
     if live:
@@ -167,7 +196,9 @@ def test_a_load_waits_for_the_switches_an_earlier_load_left_pending(tmp_path):
     c_words = farm(tmp_path / "c", (20, 30, 25), seed=3)
     b.load(tmp_path / "a")
     b.play(500)
-    b.load(tmp_path / "b")
+    # B's writes sent by a load that was cut off before it saw them take effect
+    manifest, words = read_manifest_dir(tmp_path / "b")
+    b.bridge.write_many(plan_writes(manifest, CONTRACT, words, [(0, 40), (40, 50), (90, 30)]))
     assert all(b.model.pending)
     steps = b.model.steps
     res = b.load(tmp_path / "c")
