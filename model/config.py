@@ -194,6 +194,44 @@ _FLASH_KEYS = {"angle", "width", "gain_db"}
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
+#: Largest magnitude of a key's value, and its unit: beyond every radar and
+#: turbine RAST serves, and far from where the arithmetic loses its meaning
+#: (10**(gain_db / 20) overflows near 6000 dB; a range of 1e300 km has no
+#: delay in samples).
+LIMITS = {
+    "range": (1e5, "km"), "rpm": (1e4, "rpm"), "rotor_angle": (1e6, "deg"), "start_angle": (1e6, "deg"),
+    "radius": (1e4, "m"), "rsc": (1e12, "m²"), "rcs": (1e12, "m²"), "phase_start": (1e6, "deg"),
+    "angle": (1e6, "deg"), "width": (360.0, "deg"), "gain_db": (300.0, "dB"),
+    "wire_radius_min": (1e4, "m"), "wire_radius_max": (1e4, "m"), "wire_reflectivity": (1e12, "m²/m"),
+    "wire_phase_offset": (1e6, "deg"), "wire_view_angle": (1e6, "deg"), "tower_rcs": (1e12, "m²"),
+    "tower_phase": (1e6, "deg"), "tower_shadow_depth": (300.0, "dB"), "stream_rate": (1e12, "Hz"),
+    "sample_rate": (1e5, "MHz"), "radar_frequency": (1e7, "MHz"), "prf": (1e8, "Hz"),
+    "pulse_width": (1e7, "µs"), "cpi": (1e7, "ms"), "stream_oversampling": (1e6, "× max Doppler"),
+    "output_gain_db": (300.0, "dB"), "range_extend_above": (1e12, "RTS samples"),
+    # integers
+    "num_blades": (1000, ""), "num_rcs": (100_000, ""), "ram_depth": (1 << 32, ""),
+    "adc_latency": (1 << 20, ""), "dac_latency": (1 << 20, ""),
+}
+
+
+def _finite(value) -> bool:
+    """A TOML number that is finite (TOML integers may be too large for a float)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and _finite(v)
+
+
+def _short(value, limit=60) -> str:
+    """``repr(value)``, cut to ``limit`` characters (a config may hold huge lists)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def _did_you_mean(key: str, allowed) -> str:
     close = difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6)
     return f" (did you mean '{close[0]}'?)" if close else ""
@@ -215,20 +253,26 @@ class _Reader:
                 self.problem(key, "is not a known key" + _did_you_mean(key, allowed))
 
     def number(self, key, default=None, *, required=False, positive=False,
-               non_negative=False, unit=""):
+               non_negative=False, unit="", limit=None):
+        """A finite number; ``limit`` bounds its magnitude (default: the key's
+        entry in LIMITS, else none)."""
         if key not in self.table:
             if required:
                 self.problem(key, "is required" + (f" ({unit})" if unit else ""))
             return default
         value = self.table[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.problem(key, f"must be a number, not {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
+            self.problem(key, f"must be a number, not {_short(value)}")
             return default
         if positive and not value > 0:
             self.problem(key, f"must be positive, not {value!r}")
             return default
         if non_negative and value < 0:
             self.problem(key, f"must not be negative, not {value!r}")
+            return default
+        limit = LIMITS.get(key) if limit is None else limit
+        if limit is not None and abs(value) > limit[0]:
+            self.problem(key, f"must be at most {limit[0]:g} {limit[1]} in magnitude, not {value!r}")
             return default
         return float(value)
 
@@ -240,24 +284,31 @@ class _Reader:
             return default
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int):
-            self.problem(key, f"must be an integer{what}, not {value!r}")
+            self.problem(key, f"must be an integer{what}, not {_short(value)}")
             return default
         if minimum is not None and value < minimum:
-            self.problem(key, f"must be at least {minimum}{what}, not {value!r}")
+            self.problem(key, f"must be at least {minimum}{what}, not {_short(value)}")
+            return default
+        if key in LIMITS and value > LIMITS[key][0]:
+            self.problem(key, f"must be at most {LIMITS[key][0]:g}{what}, not {_short(value)}")
             return default
         return value
 
     def vector(self, key, length, default=None, *, non_negative=False):
-        """A per-scatterer vector: a list of num_rcs numbers (a bare number when num_rcs = 1)."""
+        """A per-scatterer vector: a list of num_rcs numbers (a bare number when
+        num_rcs = 1), each within the key's LIMITS."""
         if key not in self.table:
             return default
         value = self.table[key]
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             value = [value]
-        if (not isinstance(value, list) or
-                not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                        for v in value)):
-            self.problem(key, f"must be a list of numbers, not {value!r}")
+        if not isinstance(value, list) or not all(_is_number(v) for v in value):
+            self.problem(key, f"must be a list of numbers, not {_short(value)}")
+            return default
+        limit = LIMITS.get(key)
+        if limit is not None and any(abs(v) > limit[0] for v in value):
+            self.problem(key, f"must hold values of at most {limit[0]:g} {limit[1]} in magnitude, "
+                         f"not {_short(value)}")
             return default
         if length is not None and len(value) != length:
             self.problem(key, f"has {len(value)} values but num_rcs = {length}")
@@ -269,6 +320,10 @@ class _Reader:
         return array
 
 
+#: Largest amplitude weight of an ``rsc_weighting`` table.
+MAX_WEIGHT = 1e6
+
+
 def _parse_weighting(r: _Reader, num_rcs: int):
     if "rsc_weighting" not in r.table:
         return None
@@ -278,8 +333,9 @@ def _parse_weighting(r: _Reader, num_rcs: int):
         sub.unknown(_FLASH_KEYS)
         angle = value.get("angle", 0.0)
         angles = angle if isinstance(angle, list) else [angle]
-        if not angles or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in angles):
-            sub.problem("angle", f"must be a number or a list of numbers (deg), not {angle!r}")
+        if not angles or not all(_is_number(a) and abs(a) <= LIMITS["angle"][0] for a in angles):
+            sub.problem("angle", f"must be a number or a list of numbers of at most "
+                        f"{LIMITS['angle'][0]:g} deg in magnitude, not {_short(angle)}")
             angles = [0.0]
         width = sub.number("width", required=True, positive=True, unit="deg")
         gain_db = sub.number("gain_db", required=True, unit="dB")
@@ -290,12 +346,11 @@ def _parse_weighting(r: _Reader, num_rcs: int):
         value = [value]
     ok = (isinstance(value, list) and value and
           all(isinstance(row, list) and row and
-              all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                  for v in row) for row in value))
+              all(_is_number(v) and abs(v) <= MAX_WEIGHT for v in row) for row in value))
     if not ok:
-        r.problem("rsc_weighting", "must be a table of weights (a list of rows of numbers, one "
-                  "row per scatterer) or a flash {angle = …, width = …, gain_db = …}, "
-                  f"not {value!r}")
+        r.problem("rsc_weighting", "must be a table of weights (a list of rows of numbers up to "
+                  f"{MAX_WEIGHT:g}, one row per scatterer) or a flash {{angle = …, width = …, "
+                  f"gain_db = …}}, not {_short(value)}")
         return None
     if len({len(row) for row in value}) != 1:
         r.problem("rsc_weighting", "rows must all have the same number of columns")
@@ -488,15 +543,35 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
         raise ConfigError(error.problems, source) from None
 
 
+#: Largest config file read (bytes): a farm of thousands of turbines is a few MB.
+MAX_CONFIG_BYTES = 64 << 20
+
+
 def load_config(path) -> Farm:
-    """Read and validate a TOML config file."""
+    """Read and validate a TOML config file: UTF-8 text (a byte-order mark is
+    skipped), no NUL bytes, at most MAX_CONFIG_BYTES; anything else, and TOML
+    nested too deep to parse, is a :class:`ConfigError` naming the file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        if path.is_dir():
+            raise ConfigError(["cannot read the config: it is a folder"], str(path))
+        with open(path, "rb") as f:
+            raw = f.read(MAX_CONFIG_BYTES + 1)
     except OSError as error:
-        raise ConfigError([f"cannot read the config: {error.strerror}"], str(path)) from None
+        raise ConfigError([f"cannot read the config: {error.strerror or error}"], str(path)) from None
+    if len(raw) > MAX_CONFIG_BYTES:
+        raise ConfigError([f"is larger than {MAX_CONFIG_BYTES >> 20} MB: not a config file"], str(path))
+    if b"\x00" in raw:
+        raise ConfigError(["is a binary file, not a TOML config (it holds NUL bytes)"], str(path))
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise ConfigError([f"is not UTF-8 text (byte {error.start} is {raw[error.start]:#04x}): "
+                           "save the config as UTF-8"], str(path)) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError([f"is not valid TOML: {error}"], str(path)) from None
+    except RecursionError:
+        raise ConfigError(["nests arrays or tables too deeply to be a config"], str(path)) from None
     return parse_config(data, str(path))

@@ -106,7 +106,7 @@ __all__ += ["PRODUCT_SHIFT", "PRODUCT_WIDTH", "GAIN_SHIFT", "SCALED_WIDTH",
             "fir_coefficients", "refill_samples", "max_phase_increment", "min_stream_length",
             "CMULT_FORMS", "guard_bits", "sum_width", "round_half_up", "saturate",
             "delay_depth", "ReplayContract",
-            "DDR_INPUT_LATENCY", "DDR_OUTPUT_LATENCY", "PIN_LAG", "board_input_latency",
+            "DDR_INPUT_LATENCY", "DDR_OUTPUT_LATENCY", "PIN_LAG", "board_input_latency", "rate_mismatch",
             "board_output_latency", "TARGETS", "path_latency"]
 
 #: The complex product is rounded by this many bits: Q15 x Q15 -> Q15.
@@ -569,6 +569,17 @@ def path_latency(contract: "ReplayContract", target: str, adc_latency: int = 0,
     if target == "block":
         return contract.latency
     return adc_latency + board_latency(contract) + dac_latency
+
+
+def rate_mismatch(stream_rate_hz: float, block_rate_hz: float) -> str:
+    """What streams made for ``stream_rate_hz`` do on a block sampling at
+    ``block_rate_hz``: every Doppler scales by block / stream (the block steps
+    through the words that much faster) and every range by its inverse;
+    said as "N× too high" or "N× too low", N >= 1."""
+    ratio = block_rate_hz / stream_rate_hz
+    doppler, ranges = ("high", "short") if ratio >= 1 else ("low", "long")
+    n = ratio if ratio >= 1 else 1 / ratio
+    return f"every Doppler would play {n:.3g}x too {doppler} and every range {n:.3g}x too {ranges}"
 
 
 def guard_bits(channels: int) -> int:

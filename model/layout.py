@@ -202,7 +202,16 @@ def parse_layout(text: str, source: str = "") -> Layout:
         raise ConfigError(["has no header row (the column names) and no turbines"], source)
     header_line = rows[0][0]
     reader = csv.reader(io.StringIO("\n".join(line for _, line in rows)))
-    records = list(reader)
+    records = []
+    try:
+        for record in reader:
+            if any("\n" in c or "\r" in c for c in record):
+                raise ConfigError([f"line {rows[len(records)][0]}: a quoted cell runs over several lines; "
+                                   "a layout has one turbine per line"], source)
+            records.append(record)
+    except csv.Error as error:          # e.g. a cell over csv.field_size_limit() characters
+        at = rows[min(len(records), len(rows) - 1)][0]
+        raise ConfigError([f"line {at}: is not a CSV row RAST reads: {error}"], source) from None
     header = [h.strip().lower() for h in records[0]]
     index = {h: k for k, h in enumerate(header)}
     position = next(((xc, yc, geo) for xc, yc, geo in _POSITION_COLUMNS if xc in index and yc in index), None)
@@ -376,14 +385,29 @@ def _elevations_from_radar_deg(layout: Layout, radar: RadarSite, hub_alt_m: np.n
     return np.degrees(np.arctan2(np.asarray(u), np.hypot(e, n)))
 
 
+#: Earth's mean radius and the effective-radius factor of standard refraction
+#: (the 4/3 Earth of radar propagation).
+EARTH_RADIUS_M = 6_371_000.0
+REFRACTION_K = 4 / 3
+
+
+def radar_horizon_m(antenna_m, target_m):
+    """Farthest distance (m) at which a target ``target_m`` above the ground
+    is above the horizon of an antenna ``antenna_m`` above it, over a smooth
+    4/3 Earth: sqrt(2 k R h_a) + sqrt(2 k R h_t) (heights below 0 count as 0)."""
+    kr = 2 * REFRACTION_K * EARTH_RADIUS_M
+    return np.sqrt(kr * np.maximum(antenna_m, 0.0)) + np.sqrt(kr * np.maximum(target_m, 0.0))
+
+
 def place_turbines(layout: Layout, radar: RadarSite, wind_from_deg: float, *,
                    turbine_class: TurbineClass, wind_speed_m_s: float | None = None,
                    max_range_km: float) -> list[PlacedTurbine]:
     """Range, rotor angle, blade offset and rpm of every turbine, as seen from ``radar``.
 
     Raises :class:`ConfigError` naming the line of each turbine beyond
-    ``max_range_km`` or within its own blade length of the antenna, or a wind
-    speed at which the class's rotors are parked.
+    ``max_range_km``, within its own blade length of the antenna or below the
+    radar's horizon (:func:`radar_horizon_m`), or a wind speed at which the
+    class's rotors are parked.
     """
     problems = []
     if layout.geodetic and not (-90 <= radar.y <= 90 and -180 <= radar.x <= 180):
@@ -401,13 +425,19 @@ def place_turbines(layout: Layout, radar: RadarSite, wind_from_deg: float, *,
     hub_alt = np.array([t.base_m for t in turbines]) + hub
     to_radar = _radar_in_turbine_frames(layout, radar, hub_alt)
     slant_m = np.linalg.norm(to_radar, axis=1)
-    for t, r_m, d in zip(turbines, slant_m, rotor):
+    horizon_m = radar_horizon_m(radar.height_m, hub_alt + rotor / 2)
+    for t, r_m, d, h_m in zip(turbines, slant_m, rotor, horizon_m):
         if r_m > max_range_km * 1e3:
             problems.append(f"line {t.line} (turbine '{t.name}'): its slant range {r_m / 1e3:.3f} km is "
                             f"beyond the radar's maximum range {max_range_km:.3f} km")
         elif r_m <= d / 2:
             problems.append(f"line {t.line} (turbine '{t.name}'): its hub is {r_m:.1f} m from the "
                             f"radar, within its own blade length ({d / 2:g} m)")
+        elif r_m > h_m:
+            problems.append(f"line {t.line} (turbine '{t.name}'): it lies below the radar's horizon: its "
+                            f"blade tips at {t.base_m + (t.hub_height_m or turbine_class.hub_height_m) + d / 2:g} "
+                            f"m are seen over a 4/3 Earth only up to {h_m / 1e3:.1f} km from an antenna at "
+                            f"{radar.height_m:g} m, and it is {r_m / 1e3:.1f} km away")
     if problems:
         raise ConfigError(problems, layout.source or None)
     los = to_radar / slant_m[:, None]
@@ -427,6 +457,15 @@ def place_turbines(layout: Layout, radar: RadarSite, wind_from_deg: float, *,
 # ---------------------------------------------------------------------------
 # Output
 
+def _comment(text: str, limit: int = 200) -> str:
+    """``text`` safe inside one TOML comment line: every character that is
+    not printable (a line break, a control character) written as its Python
+    escape, and at most ``limit`` characters. Layout cells are the user's
+    text; a line break in one would end the comment and start a key."""
+    text = "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in str(text))
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def _windmill_table(p: PlacedTurbine, tower_rcs_m2: float | None = None) -> list[str]:
     c = p.turbine_class
     scale = p.rotor_diameter_m / c.rotor_diameter_m
@@ -435,7 +474,7 @@ def _windmill_table(p: PlacedTurbine, tower_rcs_m2: float | None = None) -> list
     radii = [r_hub + (r_tip - r_hub) * (j + 1) / k for j in range(k)]
     phases = [(137 * j) % 360 for j in range(k)]        # scatterers of one blade not in phase
     t = p.turbine
-    model = f", t_model {t.model}" if t.model else ""
+    model = f", t_model {_comment(t.model)}" if t.model else ""
     return [
         "",
         f"# line {t.line}{model}: bearing {p.bearing_deg:.2f} deg, elevation {p.elevation_deg:.3f} deg, "
@@ -464,7 +503,7 @@ def farm_toml(placed: list[PlacedTurbine], settings: FarmSettings, *, header: li
     """The farm config (``docs/farm_layouts.md``): the settings, then one
     ``[[windmill]]`` per turbine in layout order; ``header`` lines become comments.
     ``tower_rcs_m2``: every turbine's static return (tower and nacelle), m²."""
-    lines = [f"# {h}" if h else "#" for h in header]
+    lines = [f"# {_comment(h)}" if h else "#" for h in header]
     lines += [
         f"sample_rate = {settings.sample_rate_mhz:g}          # MHz, the RTS sample rate",
         f"radar_frequency = {settings.radar_frequency_mhz:g}    # MHz",

@@ -6,7 +6,7 @@ manifest made for another build."""
 from pathlib import Path
 
 from .fixedpoint import (ReplayContract, GAIN_WIDTH, TARGETS, path_latency, board_input_latency,
-                         board_output_latency)
+                         board_output_latency, rate_mismatch)
 from .powerup import ChannelInit
 from .regmap import register_map, stream_crc32, RegisterMap, CTRL_ENABLE, CTRL_SWAP
 
@@ -23,12 +23,11 @@ def _check_build(manifest, contract):
     made for: refuse it for a block built otherwise (naming both numbers)."""
     rate = manifest.get("sample_rate_hz")
     if rate is not None and contract.sample_rate_hz and round(float(rate)) != contract.sample_rate_hz:
-        ratio = contract.sample_rate_hz / float(rate)
         raise ValueError(f"Manifest was made for a sample rate of {float(rate) / 1e6:g} MHz "
                          f"(sample_rate_hz {round(float(rate))}) but the replay block runs at "
-                         f"{contract.sample_rate_hz / 1e6:g} MHz ({contract.sample_rate_hz}): every "
-                         f"Doppler would play {ratio:.3g}x too high and every range {ratio:.3g}x too "
-                         f"short; make the streams for this build (rast stream --build report.json)")
+                         f"{contract.sample_rate_hz / 1e6:g} MHz ({contract.sample_rate_hz}): "
+                         f"{rate_mismatch(float(rate), contract.sample_rate_hz)}; make the streams "
+                         f"for this build (rast stream --build report.json)")
     interp = manifest.get("interpolation")
     if interp is not None and interp != contract.interpolation:
         raise ValueError(f"Manifest's streams were made for {interp} interpolation but the replay block "

@@ -94,7 +94,7 @@ def save_preview(farm, bins: list[RangeBin], spectra: list[Spectrogram], path, *
         ax.set_title(head if sfdr is None else f"{head} — SFDR {sfdr[k].sfdr_db:.1f} dB", fontsize=10)
     fig.suptitle(title, fontsize=11)
     fig.colorbar(image, ax=axes[:, 0].tolist(), label="power (dB rel. peak)", shrink=min(1.0, 0.4 + 0.3 * len(bins)))
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
@@ -191,7 +191,7 @@ def save_gate_grid(path, times_s: np.ndarray, doppler_hz: np.ndarray, gates: lis
     fig.colorbar(image, cax=bar, label="power (dB rel. peak)")
     if title:
         fig.suptitle(title, fontsize=10, y=1 - 0.15 / height, va="top")
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, format="png")
     plt.close(fig)
 
 
@@ -235,5 +235,5 @@ def save_range_doppler(farm, bins: list[RangeBin], spectra: list[Spectrogram], p
                            f"{spectra[0].times_s.size} CPIs — {radar.frequency_mhz / 1e3:g} GHz, "
                            f"PRF {radar.prf_hz / 1e3:g} kHz, CPI {radar.cpi_ms:g} ms"), fontsize=10)
     fig.colorbar(mesh, ax=ax, label="power (dB rel. peak)")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)

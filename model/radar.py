@@ -19,13 +19,18 @@ from .stream import FarmStreams
 from .turbine import modulation
 from . import fixedpoint as fx
 
-__all__ = ["RangeBin", "range_bins", "pulse_times", "receive", "spectrogram", "Spectrogram"]
+__all__ = ["RangeBin", "range_bins", "pulse_times", "receive", "spectrogram", "Spectrogram", "MAX_PREVIEW_SAMPLES"]
 
 
 @dataclass(frozen=True)
 class RangeBin:
     range_km: float
     members: tuple[int, ...]     # indices into farm.windmills whose echo is in this bin
+
+
+#: Most complex samples (pulses x range bins) a preview computes: 2**25 of
+#: them, with the spectrogram's frames, are about 2 GB.
+MAX_PREVIEW_SAMPLES = 1 << 25
 
 
 def range_bins(farm: Farm) -> list[RangeBin]:

@@ -32,10 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .outputs import check_target, replace_file
 from .stream import FarmStreams, build_farm_streams
 
 __all__ = ["write_hex", "read_hex", "write_bin", "read_bin", "write_coe", "write_mif",
-           "FORMATS", "DEFAULT_FORMATS", "write_farm_files", "make_farm_files"]
+           "FORMATS", "DEFAULT_FORMATS", "write_farm_files", "make_farm_files", "output_names", "check_targets"]
 
 #: RAM file formats ``write_farm_files`` writes, by file suffix.
 FORMATS = ("hex", "bin", "npy", "coe", "mif")
@@ -342,16 +343,36 @@ class _StreamFiles:
             raise errors[0]
 
 
+def output_names(windmill_names, formats=DEFAULT_FORMATS) -> list[str]:
+    """The files a farm's streams are written to: per windmill one per format
+    (``.hex`` always), and ``manifest.json``."""
+    chosen = _chosen(formats)
+    return [f"{name}.{f}" for name in windmill_names for f in chosen] + ["manifest.json"]
+
+
+def check_targets(out_dir, windmill_names, formats=DEFAULT_FORMATS) -> None:
+    """Refuse (:class:`OutputError`) an output folder in which one of the files
+    a farm would be written to exists as something else than a regular file
+    (a folder, a device): before any is computed or written, so that the
+    earlier outputs stay whole."""
+    for name in output_names(windmill_names, formats):
+        check_target(Path(out_dir) / name)
+
+
 def _commit(farm_streams: FarmStreams, staging: Path, out_dir: Path, names: dict, build) -> dict[str, Path]:
-    """Write the manifest into ``staging`` and move every file into ``out_dir``."""
+    """Write the manifest into ``staging`` and move every file into ``out_dir``
+    (every target checked first: one that is not a regular file moves none)."""
     manifest = farm_streams.manifest(names)
     if build is not None:
         manifest["build"] = build.to_dict()
     (staging / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    files = sorted(staging.iterdir())
+    for path in files:
+        check_target(out_dir / path.name)
     written = {}
-    for path in sorted(staging.iterdir()):
+    for path in files:
         target = out_dir / path.name
-        os.replace(path, target)
+        replace_file(path, target)
         written[path.name] = target
     return written
 
@@ -370,6 +391,7 @@ def make_farm_files(farm, out_dir, *, build=None, formats=DEFAULT_FORMATS, progr
     """
     chosen = _chosen(formats)
     out_dir = Path(out_dir)
+    check_targets(out_dir, [w.name for w in farm.windmills], formats)
     created = [p for p in (out_dir, *out_dir.parents) if not p.exists()]
     out_dir.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".rast-staging-", dir=out_dir))
@@ -418,6 +440,7 @@ def write_farm_files(farm_streams: FarmStreams, out_dir, *, build=None,
     ``out_dir`` as it was. Returns the written paths by file name.
     """
     out_dir = Path(out_dir)
+    check_targets(out_dir, [s.windmill.name for s in farm_streams.streams], formats)
     out_dir.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".rast-staging-", dir=out_dir))
     try:

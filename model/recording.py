@@ -55,6 +55,11 @@ MIN_CORRELATION = 0.5
 MIN_PATTERN_CORRELATION = 0.3
 
 
+#: Most band-limited reads :func:`make_loop` makes (periods x words): each is
+#: a windowed-sinc sum, and 2**26 of them take seconds and a few GB.
+MAX_LOOP_READS = 1 << 26
+
+
 class RecordingError(ValueError):
     """A recording cannot be read or made into a stream; the message says why."""
 
@@ -69,8 +74,8 @@ class Recording:
 def _read_npy(path: Path) -> np.ndarray:
     try:
         data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as error:
-        raise RecordingError(f"{path} is not a NumPy .npy file: {error}") from None
+    except (OSError, ValueError, EOFError) as error:
+        raise RecordingError(f"{path} is not a NumPy .npy file: {error or 'it is empty'}") from None
     if data.ndim == 2 and data.shape[1] == 2 and np.isrealobj(data):
         data = data[:, 0] + 1j * data[:, 1]
     if data.ndim != 1 or not np.issubdtype(data.dtype, np.number) or not np.iscomplexobj(data):
@@ -121,6 +126,10 @@ def _read_sigmf(path: Path) -> Recording:
     rate = handle.get_global_field("core:sample_rate")
     captures = handle.get_captures()
     freq = captures[0].get("core:frequency") if captures else None
+    for key, value in (("core:sample_rate", rate), ("core:frequency", freq)):
+        if value is not None and not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                                      and math.isfinite(value) and value > 0):
+            raise RecordingError(f"{meta}: '{key}' must be a positive number of Hz, not {value!r}")
     return Recording(samples.reshape(-1).astype(complex), float(rate) if rate else None,
                      float(freq) if freq else None)
 
@@ -312,6 +321,11 @@ def make_loop(samples: np.ndarray, prf_hz: float, period_s: float, length: int,
             f"the recording holds {n} samples ({n / prf_hz:.4g} s at {prf_hz:g} Hz) but one period of "
             f"{period_s:.4g} s and the interpolator's {2 * half} samples need "
             f"{math.ceil(period_s * prf_hz) + 2 * half + 1}: the recording is too short for one period")
+    if periods * length > MAX_LOOP_READS:
+        raise RecordingError(
+            f"a period of {period_s:.4g} s fits {periods:,} times in the recording and each takes "
+            f"{length:,} words: {periods * length:.3g} reads, more than the {MAX_LOOP_READS:,} RAST "
+            f"averages; give a longer --period or a lower --rate")
     t_n = np.arange(length) * (period_s / length)
     times = half / prf_hz + (np.arange(periods) * period_s)[:, None] + t_n[None, :]
     reads = band_limited_read(samples, prf_hz, times.reshape(-1), bandwidth_hz).reshape(periods, length)

@@ -23,6 +23,7 @@ rate error of 2.3e-10, far below the rounding of the period itself.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import threading
@@ -36,11 +37,16 @@ from .synthesis import ComputePool, Synthesis, synthesise_period
 from .turbine import max_doppler_hz
 from .regmap import stream_crc32
 
-__all__ = ["MIN_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams", "EchoSum",
+__all__ = ["MIN_STREAM_WORDS", "MAX_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams", "EchoSum",
            "plan_stream", "stream_times", "quantise", "quantise_words", "build_farm_streams",
            "delay_samples", "farm_for_build"]
 
 MIN_STREAM_WORDS = 16
+#: Most words one stream may have: 2**28 words are 1 GiB of packed words and
+#: 4 GiB of the complex period they are made from (the seed's mode at 15 rpm
+#: and 20 MS/s is 26.7 M words); beyond it ``rast stream`` refuses before
+#: allocating and says how many words were asked for.
+MAX_STREAM_WORDS = 1 << 28
 #: Samples quantised at a time (bounds the temporaries; one task of the pool).
 _QUANTISE_BLOCK = 1 << 20
 #: A windmill of at least this many words is computed with every core; shorter
@@ -310,6 +316,9 @@ class FarmStreams:
     farm: Farm
     streams: list[WindmillStream]   # sorted by range, nearest first: the channel order
     taps: list[dict]
+    #: What the block will play otherwise than the config says, one line per
+    #: windmill (a gain that rounds to 0); ``rast stream`` prints them.
+    warnings: list[str] = dataclasses.field(default_factory=list)
 
     def smallest_contract(self, channels: int | None = None) -> fx.ReplayContract:
         """The smallest replay block that holds these streams (all of them in
@@ -366,6 +375,11 @@ class FarmStreams:
                 "period_s": s.plan.period_s,
                 "max_doppler_hz": s.plan.max_doppler_hz,
                 "phase_increment": s.plan.phase_increment,
+                # what the block plays: the increment it steps by, in words per
+                # second, and the period that makes
+                "played_stream_rate_hz": s.plan.phase_increment / (1 << fx.PHASE_FRAC_BITS) * farm.sample_rate_hz,
+                "played_period_s": s.plan.length * (1 << fx.PHASE_FRAC_BITS) / s.plan.phase_increment
+                / farm.sample_rate_hz,
                 # what the block checks a switch against (CH[l].CRC), and the
                 # loaders check the stream file against
                 "crc32": stream_crc32(s.words_u32()),
@@ -389,6 +403,11 @@ class FarmStreams:
                 "enable": 1,
                 "length": s.plan.length,
                 "phase_increment": s.plan.phase_increment,
+                # what the block plays: the increment it steps by, in words per
+                # second, and the period that makes
+                "played_stream_rate_hz": s.plan.phase_increment / (1 << fx.PHASE_FRAC_BITS) * farm.sample_rate_hz,
+                "played_period_s": s.plan.length * (1 << fx.PHASE_FRAC_BITS) / s.plan.phase_increment
+                / farm.sample_rate_hz,
                 "gain": s.gain_word,
                 "delay_samples": s.delay_samples,
             })
@@ -419,13 +438,12 @@ def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
     depth becomes ``ram_depth``, its interpolation the farm's. Raises
     :class:`ConfigError` when the config's sample rate is not the build's or
     the farm has more windmills than the block has channels."""
-    import dataclasses
     problems = []
     if contract.sample_rate_hz and round(farm.sample_rate_hz) != contract.sample_rate_hz:
         problems.append(f"'sample_rate' is {farm.sample_rate_mhz:g} MHz but the build replays at "
                         f"{contract.sample_rate_hz / 1e6:g} MHz (sample_rate_hz "
-                        f"{contract.sample_rate_hz}): the streams would play every Doppler "
-                        f"{contract.sample_rate_hz / farm.sample_rate_hz:.3g}x too high; set "
+                        f"{contract.sample_rate_hz}): the streams would be made for the wrong rate and "
+                        f"{fx.rate_mismatch(farm.sample_rate_hz, contract.sample_rate_hz)}; set "
                         f"sample_rate = {contract.sample_rate_hz / 1e6:g} or build for "
                         f"{farm.sample_rate_mhz:g} MHz")
     if len(farm.windmills) > contract.channels:
@@ -459,9 +477,25 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
     problems = []
     plans = [plan_stream(w, farm) for w in farm.windmills]
     for w, plan in zip(farm.windmills, plans):
-        if w.stream_rate not in (None, "rts") and w.stream_rate > farm.sample_rate_hz:
+        if plan.length > MAX_STREAM_WORDS:
+            problems.append(f"windmill '{w.name}': its stream needs {plan.length:,} words (one period of "
+                            f"{plan.period_s:.4g} s at {plan.stream_rate_hz:.6g} Hz), more than the "
+                            f"{MAX_STREAM_WORDS:,} RAST makes: raise 'rpm' or lower the stream rate")
+        elif w.stream_rate not in (None, "rts") and w.stream_rate > farm.sample_rate_hz:
             problems.append(f"windmill '{w.name}': 'stream_rate' ({w.stream_rate:g} Hz) must not "
                             f"exceed the RTS sample rate ({farm.sample_rate_hz:g} Hz)")
+        elif w.stream_rate is None and plan.stream_rate_hz > farm.sample_rate_hz:
+            problems.append(
+                f"windmill '{w.name}': its automatic stream rate {plan.stream_rate_hz:.6g} Hz "
+                f"({farm.stream_oversampling:g} x its {plan.max_doppler_hz:.6g} Hz maximum Doppler) "
+                f"exceeds the RTS sample rate ({farm.sample_rate_hz:g} Hz), which the block cannot "
+                f"play: set stream_rate = \"rts\" (one word per sample) or lower 'stream_oversampling'")
+        elif plan.phase_increment == 0:
+            problems.append(
+                f"windmill '{w.name}': its stream rate {plan.stream_rate_hz:.6g} Hz is below the "
+                f"block's step of {farm.sample_rate_hz / (1 << fx.PHASE_FRAC_BITS):.3g} Hz: the "
+                f"phase increment rounds to 0 and the stream would never move; raise 'rpm' or the "
+                f"stream rate")
         elif farm.interpolation == "fir" and plan.phase_increment > fx.FIR_MAX_INCREMENT:
             limit = fx.FIR_MAX_INCREMENT / (1 << fx.PHASE_FRAC_BITS) * farm.sample_rate_hz
             problems.append(
@@ -517,14 +551,28 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
 
     # g_l ∝ K_l / scale_l: one stream word of windmill l is worth 1/scale_l of its
     # modulation. The loudest windmill's peak reaches output_gain_db.
+    silent = [s.windmill.name for s in streams if not s.packed.any()]
+    if silent:
+        raise ConfigError([f"windmill '{name}': its echo is identically zero (every scatterer, wire "
+                           f"and tower reflects nothing at this geometry): it would play silence"
+                           for name in silent])
     per_word = np.array([s.relative_amplitude / s.scale for s in streams])
     level = 10 ** (farm.output_gain_db / 20.0)
+    warnings = []
     for s, amplitude in zip(streams, per_word):
         s.gain = float(amplitude / per_word.max() * level)
         s.gain_word = round(s.gain * (1 << fx.GAIN_FRAC))
         if s.gain_word > fx.GAIN.max:
             problems.append(f"windmill '{s.windmill.name}': its gain {s.gain:.4g} exceeds the gain "
                             f"register's {fx.GAIN.max / (1 << fx.GAIN_FRAC):.4g}: lower 'output_gain_db'")
+        elif s.gain_word == 0:
+            warnings.append(f"windmill '{s.windmill.name}': its gain {s.gain:.3g} rounds to 0 in the "
+                            f"{fx.GAIN_WIDTH}-bit gain register (below 2^-{fx.GAIN_FRAC + 1}): the block "
+                            f"plays it silent")
+    if not problems and all(s.gain_word == 0 for s in streams):
+        problems.append(f"'output_gain_db' ({farm.output_gain_db:g} dB) makes every gain word 0: the "
+                        f"block would play silence; raise it (the loudest windmill's gain is "
+                        f"{max(s.gain for s in streams):.3g})")
 
     taps = []
     for s in streams:
@@ -534,4 +582,4 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
         s.tap = len(taps) - 1
     if problems:
         raise ConfigError(problems)
-    return FarmStreams(farm, streams, taps)
+    return FarmStreams(farm, streams, taps, warnings)

@@ -6,7 +6,6 @@ import argparse
 import os
 import re
 import sys
-import tempfile
 from pathlib import Path
 
 # Before numpy is imported: no transparent-hugepage advice for large arrays.
@@ -114,6 +113,8 @@ def cmd_stream(args) -> int:
         raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
     _print_streams(farm_streams)
     _print_synthesis(farm_streams)
+    for warning in farm_streams.warnings:
+        print(f"rast stream: warning: {warning}", file=sys.stderr)
     print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()
@@ -133,8 +134,9 @@ def cmd_stream(args) -> int:
 
 
 def cmd_preview(args) -> int:
+    from rast.model.outputs import atomic_file
     from rast.model.plot import MAX_PANELS, save_preview, save_range_doppler
-    from rast.model.radar import receive, spectrogram
+    from rast.model.radar import MAX_PREVIEW_SAMPLES, range_bins, receive, spectrogram
     from rast.model.sfdr import farm_sfdr
     from rast.model.stream import build_farm_streams
 
@@ -142,6 +144,12 @@ def cmd_preview(args) -> int:
     farm = load_config(args.config)
     prf = farm.radar.prf_hz
     pulses, cpi_pulses = round(args.seconds * prf), round(farm.radar.cpi_ms * 1e-3 * prf)
+    samples = pulses * len(range_bins(farm))
+    if samples > MAX_PREVIEW_SAMPLES:
+        raise UserError(f"--seconds {args.seconds:g} asks for {pulses:,} pulses at {prf:g} Hz in "
+                        f"{len(range_bins(farm))} range bin(s), {samples:.3g} samples, more than the "
+                        f"{MAX_PREVIEW_SAMPLES:,} a preview draws: give at most "
+                        f"{MAX_PREVIEW_SAMPLES / len(range_bins(farm)) / prf:.4g} s")
     if pulses < max(2, cpi_pulses):
         raise UserError(f"--seconds {args.seconds:g} gives {pulses} pulses at {prf:g} Hz, "
                         f"less than one CPI of {farm.radar.cpi_ms:g} ms ({cpi_pulses} pulses)")
@@ -156,23 +164,16 @@ def cmd_preview(args) -> int:
     map_view = args.range_doppler or len(bins) > MAX_PANELS
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    # Draw into a temporary file and move it into place: the PNG appears whole or not at all.
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=out.parent)
-    os.close(fd)
-    try:
-        if map_view:
-            save_range_doppler(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range,
-                               zoom_hz=args.zoom)
-        else:
-            save_preview(farm, bins, spectra, tmp, dynamic_range_db=args.dynamic_range, zoom_hz=args.zoom,
-                         sfdr=measured)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)   # mkstemp made it private
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    try:                  # the PNG appears whole or not at all (rast.model.outputs)
+        with atomic_file(out) as png:
+            if map_view:
+                save_range_doppler(farm, bins, spectra, png, dynamic_range_db=args.dynamic_range,
+                                   zoom_hz=args.zoom)
+            else:
+                save_preview(farm, bins, spectra, png, dynamic_range_db=args.dynamic_range,
+                             zoom_hz=args.zoom, sfdr=measured)
+    except OSError as error:
+        raise UserError(f"cannot write {out}: {error.strerror or error}") from None
     res = spectra[0].resolution_hz
     print(f"{len(bins)} range bin(s), {t.size} pulses, {spectra[0].times_s.size} CPIs, "
           f"Doppler resolution {res:g} Hz{' (replayed stream words)' if args.replay else ''}")
@@ -205,6 +206,7 @@ def _formats(text: str) -> tuple[str, ...]:
 
 def cmd_import(args) -> int:
     from rast.model.config import Radar
+    from rast.model.fixedpoint import min_stream_length
     from rast.model.ramfiles import write_farm_files
     from rast.model import recording as rec
 
@@ -216,6 +218,17 @@ def cmd_import(args) -> int:
         prf = args.prf or recording.sample_rate_hz
         if prf is None:
             raise UserError("give the recording's pulse repetition frequency with --prf HZ")
+        cpi_pulses = round(args.cpi * 1e-3 * prf)
+        if cpi_pulses < 2:
+            raise UserError(f"a CPI of {args.cpi:g} ms at a PRF of {prf:g} Hz holds {cpi_pulses} pulse(s); "
+                            f"the correlation check's spectrograms need at least 2: give --cpi "
+                            f"{2e3 / prf:g} or more")
+        if cpi_pulses > recording.samples.size:
+            raise UserError(f"the recording holds {recording.samples.size} pulses, less than one CPI of "
+                            f"{cpi_pulses} ({args.cpi:g} ms at {prf:g} Hz): give a shorter --cpi")
+        if args.period is not None and args.period * prf < 2:
+            raise UserError(f"--period {args.period:g} s is shorter than two pulse intervals at {prf:g} Hz: "
+                            f"a period must hold at least two pulses")
         if args.prf and recording.sample_rate_hz and abs(args.prf - recording.sample_rate_hz) > 1e-9 * prf:
             raise UserError(f"--prf {args.prf:g} Hz contradicts the recording's core:sample_rate "
                             f"({recording.sample_rate_hz:g} Hz)")
@@ -229,6 +242,11 @@ def cmd_import(args) -> int:
         rate = args.rate or prf
         rec.stream_increment(rate, args.sample_rate, args.interpolation)   # before the work
         length = max(2, round(rate * period_s))
+        shortest = min_stream_length(args.interpolation)
+        if length < shortest:
+            raise UserError(f"one period of {period_s:.4g} s at {rate:g} words/s is {length} words; "
+                            f"{args.interpolation} interpolation plays streams of at least {shortest}: "
+                            f"give --rate {shortest / period_s:.6g} or more")
         loop = rec.make_loop(recording.samples, prf, period_s, length, min(prf, length / period_s))
         frequency_mhz = args.radar_frequency or (recording.frequency_hz or 5350e6) / 1e6
         stem = Path(args.recording).name.split(".")[0]

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -79,6 +78,7 @@ def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from rast.model.outputs import atomic_file
     from rast.model.plot import STACKED_PANELS, gate_title, save_gate_grid
     from rast.model.turbine import max_doppler_hz
     times, dopp = data["times_s"], data["doppler_hz"]
@@ -92,12 +92,11 @@ def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,
                       max_doppler_hz=[max_doppler_hz(e.farm.windmills[i], lam) for i in members],
                       power_db=[data[f"power_rtl_{g}"], data[f"power_model_{g}"]])
                  for g, (_, rk, members) in enumerate(e.gates)]
-        tmp = out.with_suffix(".tmp.png")
-        save_gate_grid(tmp, times, dopp, gates, columns=("RTL", "model"), dynamic_range_db=dynamic_range_db,
+        with atomic_file(out) as png:
+            save_gate_grid(png, times, dopp, gates, columns=("RTL", "model"), dynamic_range_db=dynamic_range_db,
                        zoom_hz=zoom_hz, title=f"rast cosim {Path(e.config).name}: {n} gates, "
                        f"{e.pulse.n_pulses} pulses, PRF {e.farm.radar.prf_hz:g} Hz, CPI {e.farm.radar.cpi_ms:g} ms, "
-                       f"overlap {overlap:g}; each cell: RTL (left) beside the bit-exact model; dashed: ±max Doppler")
-        tmp.replace(out)
+                           f"overlap {overlap:g}; each cell: RTL (left) beside the bit-exact model; dashed: ±max Doppler")
         return
     fig, axes = plt.subplots(n, 2, figsize=(12, 3.4 * n + 0.6), squeeze=False, layout="constrained")
     ref = max(float(data[f"power_rtl_{g}"].max()) for g in range(n))
@@ -126,26 +125,63 @@ def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,
     fig.suptitle(f"rast cosim {Path(e.config).name}: {e.pulse.n_pulses} pulses, PRF "
                  f"{e.farm.radar.prf_hz:g} Hz, CPI {e.farm.radar.cpi_ms:g} ms, overlap {overlap:g}; "
                  f"dashed: ±max Doppler", fontsize=10)
-    tmp = out.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=100)
+    with atomic_file(out) as png:
+        fig.savefig(png, dpi=100, format="png")
     plt.close(fig)
-    tmp.replace(out)
 
 
 def _db(x) -> str:
     return "no line outside the band" if x is None else f"{x:.1f} dB"
 
 
+#: Most RTS samples one cosimulation runs: 2**31 (107 s at 20 MS/s) takes
+#: about an hour at the simulator's 1 M samples/s.
+MAX_COSIM_SAMPLES = 1 << 31
+
+
+def _check_options(args, farm) -> None:
+    """Every option, before anything is built or created (UserError)."""
+    from rast.errors import UserError, check_output
+    from rast.model.fixedpoint import ReplayContract
+    finite = lambda v: v == v and abs(v) != float("inf")
+    if not (finite(args.seconds) and args.seconds > 0):
+        raise UserError(f"--seconds must be a positive number of seconds, not {args.seconds:g}")
+    samples = args.seconds * farm.sample_rate_hz
+    if samples > MAX_COSIM_SAMPLES:
+        raise UserError(f"--seconds {args.seconds:g} asks for {samples:.3g} RTS samples at "
+                        f"{farm.sample_rate_mhz:g} MHz, more than the {MAX_COSIM_SAMPLES:,} a cosimulation "
+                        f"runs (about an hour): give at most {MAX_COSIM_SAMPLES / farm.sample_rate_hz:.3g} s")
+    if not (finite(args.overlap) and 0 <= args.overlap < 1):
+        raise UserError(f"--overlap must be a fraction in [0, 1), not {args.overlap:g}")
+    if not (finite(args.dynamic_range) and args.dynamic_range > 0):
+        raise UserError(f"--dynamic-range must be a positive number of dB, not {args.dynamic_range:g}")
+    if not (finite(args.noise_rms) and args.noise_rms >= 0):
+        raise UserError(f"--noise-rms must be a non-negative fraction of full scale, not {args.noise_rms:g}")
+    if args.reload_at is not None and not (finite(args.reload_at) and 0 <= args.reload_at < args.seconds):
+        raise UserError(f"--reload-at must be a time in [0, --seconds), not {args.reload_at:g}")
+    if args.channels is not None and not 1 <= args.channels <= ReplayContract.MAX_CHANNELS:
+        raise UserError(f"--channels must be in [1, {ReplayContract.MAX_CHANNELS}], not {args.channels}")
+    if args.channels is not None and args.channels < len(farm.windmills):
+        raise UserError(f"--channels {args.channels} is fewer than the config's {len(farm.windmills)} "
+                        f"windmills (after range extension)")
+    if not 1 <= args.slots <= ReplayContract.MAX_SLOTS:
+        raise UserError(f"--slots must be in [1, {ReplayContract.MAX_SLOTS}], not {args.slots}")
+    check_output(args.out, folder=True, option="--out")
+
+
 def run(args) -> int:
     import numpy as np
+    from rast.errors import UserError
     from rast.model.config import ConfigError, load_config
     from rast.sim import runner
     from rast.sim.e2e import prepare
     from rast.sim.netlist import replay_netlist_sources
     from rast.sim.top import sdram_engine_top_sources, top_sources
+    from rast.model.outputs import atomic_file, write_bytes, write_text
     try:
-        load_config(args.config)            # before anything is created
-    except ConfigError as error:
+        farm = load_config(args.config)            # before anything is created
+        _check_options(args, farm)
+    except (ConfigError, UserError) as error:
         print(f"rast cosim: {error}", file=sys.stderr)
         return 2
     config = str(Path(args.config).resolve())
@@ -199,10 +235,11 @@ def run(args) -> int:
     rep = json.loads(rep_path.read_text()) if rep_path.exists() else {}
     written = []
     if (run_dir / "e2e.npz").exists():
-        shutil.copy(run_dir / "e2e.npz", out / "e2e.npz")
+        write_bytes(out / "e2e.npz", (run_dir / "e2e.npz").read_bytes())
         data = np.load(out / "e2e.npz")
         # one row per pulse, one column per range gate: the RTL's output at each gate's sample
-        np.save(out / "gates.npy", np.ascontiguousarray(data["rtl"].T, dtype=np.complex128))
+        with atomic_file(out / "gates.npy") as f:
+            np.save(f, np.ascontiguousarray(data["rtl"].T, dtype=np.complex128))
         written += ["e2e.npz", "gates.npy"]
         if rep.get("doppler"):
             _png(out / "spectrogram.png", e, data, args.overlap, zoom_hz=args.zoom,
@@ -254,9 +291,9 @@ def run(args) -> int:
     if failure:
         lines += ["", "FAILED:", failure]
     text = "\n".join(lines) + "\n"
-    (out / "report.txt").write_text(text)
+    write_text(out / "report.txt", text)
     gates_km = [rk for _, rk, _ in e.gates]
-    (out / "report.json").write_text(json.dumps(dict(rep, prf_hz=e.farm.radar.prf_hz, gates_km=gates_km,
+    write_text(out / "report.json", json.dumps(dict(rep, prf_hz=e.farm.radar.prf_hz, gates_km=gates_km,
                                                      sfdr_db=rep.get("sfdr_db"), sfdr=rep.get("sfdr", []),
                                                      total_wall_s=wall, failure=failure),
                                                 indent=2, default=float))

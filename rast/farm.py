@@ -11,12 +11,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import tempfile
 import tomllib
 from pathlib import Path
 
-from rast.errors import check_output, positive_hz
+from rast.errors import UserError, check_output, positive_hz
+from rast.model.outputs import write_text
 
 __all__ = ["add_arguments", "run"]
 
@@ -116,17 +115,10 @@ def run(args) -> int:
     parse_config(tomllib.loads(text), "the farm config")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".toml", dir=out.parent)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        write_text(out, text)
+    except OSError as error:
+        raise UserError(f"cannot write {out}: {error.strerror or error}") from None
     print("\n".join(summary))
     print(f"wrote {out.resolve()}")
     return 0
