@@ -14,6 +14,7 @@ import os
 import subprocess
 from pathlib import Path
 from rast.model.fixedpoint import ReplayContract
+from rast.model.outputs import write_text
 
 __all__ = ["VERILATOR_WAIVERS", "PCH_MAKE_FIX", "verilator_warning_args", "setup_verilator",
            "build_verilated", "verilog_text", "write_verilog", "lint"]
@@ -101,7 +102,7 @@ def write_verilog(channels, path, **kwargs):
     """Write the top with ``channels`` channels to ``path``; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(verilog_text(channels, **kwargs))
+    write_text(path, verilog_text(channels, **kwargs))     # whole or not at all
     return path
 
 

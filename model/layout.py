@@ -196,7 +196,9 @@ def parse_layout(text: str, source: str = "") -> Layout:
     the class's), ``base_m`` (ground under the turbine above the radar's ground, m),
     ``name``/``case_id``/``id`` and ``t_model``. Other columns are ignored."""
     problems: list[str] = []
-    lines = text.splitlines()
+    # lines end at \n (and \r\n) only: str.splitlines would also break at a
+    # vertical tab, a form feed or a file separator inside a cell
+    lines = [line.removesuffix("\r") for line in text.split("\n")]
     rows = [(n, line) for n, line in enumerate(lines, 1) if line.strip() and not line.lstrip().startswith("#")]
     if not rows:
         raise ConfigError(["has no header row (the column names) and no turbines"], source)

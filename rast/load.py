@@ -42,7 +42,19 @@ class LoadError(Exception):
 
 
 def read_contract(bridge: HostBridge) -> ReplayContract:
-    """The replay block's parameters, read from its capability registers."""
+    """The replay block's parameters, read from its capability registers;
+    read again (after a resynchronisation) when the line damaged a reply,
+    RETRIES times."""
+    for attempt in range(RETRIES + 1):
+        try:
+            return _read_contract(bridge)
+        except (LoadError, ProtocolError, ValueError):
+            if attempt == RETRIES:
+                raise
+            bridge.resync()
+
+
+def _read_contract(bridge: HostBridge) -> ReplayContract:
     bid = bridge.version()
     if bid != BRIDGE_ID:
         raise LoadError(f"Bridge identifies as {bid:#010x}, this loader speaks {BRIDGE_ID:#010x}")

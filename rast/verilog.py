@@ -53,7 +53,10 @@ def run(args):
                             f"{error}") from None
         extra.append(f"initial contents from {manifest_file.name}: "
                      + ", ".join(ch["windmill"] for ch in manifest["registers"]["channels"]))
-    path = write_verilog(args.channels, args.output, name=args.name, header_extra=extra, **kwargs)
+    try:
+        path = write_verilog(args.channels, args.output, name=args.name, header_extra=extra, **kwargs)
+    except OSError as error:
+        raise UserError(f"cannot write {args.output}: {error.strerror or error}") from None
     print(f"wrote {path}")
     if args.lint:
         lint(path, args.name)

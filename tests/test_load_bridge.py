@@ -194,6 +194,7 @@ def test_load_rejects_wrong_bitstream():
         """A bridge that answers every read with 0."""
         def version(self): return BRIDGE_ID
         def read(self, addr): return 0
+        def resync(self): pass
     with pytest.raises(LoadError, match=r"^Register ID reads 0x00000000"):
         read_contract(Fake())
 
