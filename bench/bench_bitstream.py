@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 
 from rast.gateware.build import NAME, BuildConfig, build, late_endpoints, netlist_identity
-from rast.model.fixedpoint import ReplayContract
+from rast.model.contract.fixedpoint import ReplayContract
 
 #: label -> (what it answers, BuildConfig keyword arguments). Every rung on the
 #: full board top (PLL, I/O, UART bridge, engine), delays 8190 + 2046 samples.
@@ -196,8 +196,8 @@ def seed_capacity():
     while all play; and the 64-turbine example farm as it is."""
     from rast.gateware.capacity import pool_words_for, total_blocks, total_dsps, turbines_per_device, \
         DEVICE_BLOCKS
-    from rast.model.config import load_config
-    from rast.model.stream import build_farm_streams
+    from rast.model.physics.farm import load_config
+    from rast.model.physics.stream import build_farm_streams
     examples = Path(__file__).resolve().parent.parent / "examples"
     kw = BuildConfig().replay_kwargs()
     shape = dict(slots=kw["slots"], max_delay=kw["max_delay"], max_tap=kw["max_tap"])

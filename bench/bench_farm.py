@@ -15,10 +15,10 @@ import time
 import tomllib
 from pathlib import Path
 
-from rast.model.config import parse_config
-from rast.model.layout import TURBINE_CLASSES, FarmSettings, RadarSite, make_farm, read_layout
-from rast.model.ramfiles import FORMATS, write_farm_files
-from rast.model.stream import build_farm_streams
+from rast.model.physics.farm import parse_config
+from rast.model.physics.layout import TURBINE_CLASSES, FarmSettings, RadarSite, make_farm, read_layout
+from rast.model.files.ramfiles import FORMATS, write_farm_files
+from rast.model.physics.stream import build_farm_streams
 
 LAYOUT = Path(__file__).resolve().parents[1] / "examples" / "farm_layout_uswtdb.csv"
 

@@ -7,7 +7,7 @@ turbines) and each interpolation (hold, linear, fir) at 4x and 8x
 oversampling: the bit-exact model's stream words at every pulse for
 ``--seconds`` of radar time, the worst-CPI SFDR over ±PRF/2
 (Blackman-Harris, outside every turbine's ±(max Doppler + 6 bins),
-``rast.model.sfdr``), the highest spur's frequency and the stream words the
+``rast.model.radar.sfdr``), the highest spur's frequency and the stream words the
 farm needs.
 """
 
@@ -20,10 +20,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rast.model.config import load_config           # noqa: E402
-from rast.model.radar import receive                # noqa: E402
-from rast.model.sfdr import farm_sfdr, worst        # noqa: E402
-from rast.model.stream import build_farm_streams    # noqa: E402
+from rast.model.physics.farm import load_config           # noqa: E402
+from rast.model.radar.receiver import receive                # noqa: E402
+from rast.model.radar.sfdr import farm_sfdr, worst        # noqa: E402
+from rast.model.physics.stream import build_farm_streams    # noqa: E402
 
 DEFAULT = [ROOT / "examples" / "two_windmills.toml", ROOT / "examples" / "sec4_3_3_realistic.toml"]
 

@@ -4,7 +4,7 @@ For each farm, the register writes ``rast load`` sends (``manifest_to_register_w
 per channel the stream as one burst frame, BASE, LENGTH, PHASE_INC, CRC,
 gain, delay, the switch; the block target, whose writes differ from the
 board's only in the delay values) are framed as the bridge protocol
-frames them (``rast.model.hostproto.group_writes``) and their bytes counted;
+frames them (``rast.model.contract.hostproto.group_writes``) and their bytes counted;
 at 8N1 a byte is 10 bits on the line. Printed: stream words, frame bytes, and
 the line time at 1 Mbaud (the old default) and 3 Mbaud (the FT231X's fastest,
 the default now). The bridge takes a byte every 10 x divisor fabric clocks and
@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rast.model.config import parse_config
-from rast.model.fixedpoint import ReplayContract, POOL_BANK_WORDS
-from rast.model.hostproto import line_bytes, line_seconds
-from rast.model.loadplan import manifest_to_register_writes
-from rast.model.stream import build_farm_streams
+from rast.model.physics.farm import parse_config
+from rast.model.contract.fixedpoint import ReplayContract, POOL_BANK_WORDS
+from rast.model.contract.hostproto import line_bytes, line_seconds
+from rast.model.contract.loadplan import manifest_to_register_writes
+from rast.model.physics.stream import build_farm_streams
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 BAUDS = (1_000_000, 3_000_000)

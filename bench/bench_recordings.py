@@ -1,7 +1,7 @@
 """How well `rast import` reproduces recordings: rpm found and spectrogram correlation.
 
 Each case is a synthetic recording made by RAST's physics model
-(``rast.model.recording.synthetic_recording``: three blades, 15 rpm, 26 m and
+(``rast.model.physics.recording.synthetic_recording``: three blades, 15 rpm, 26 m and
 12 m scatterers, blade flashes, a mast) and imported as `rast import` does it
 (stream rate 4 kHz, FIR interpolation, 20 MS/s). The correlation is that of
 ``spectrogram_correlation``: the model radar's spectrogram of the replayed
@@ -13,9 +13,10 @@ stream words against the recording's, in dB within 40 dB of each one's peak,
 
 import numpy as np
 
-from rast.model.config import Radar
-from rast.model.recording import (RecordingError, estimate_period, make_loop, recording_streams,
-                                  spectrogram_correlation, synthetic_recording)
+from rast.model.physics.config import Radar
+from rast.model.radar.receiver import spectrogram_correlation
+from rast.model.physics.recording import (RecordingError, estimate_period, make_loop, recording_streams,
+                                          synthetic_recording)
 
 CASES = [
     # name, keyword arguments of synthetic_recording

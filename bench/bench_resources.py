@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from rast.hdl.cmult import ComplexMultiplier            # noqa: E402
 from rast.hdl.replay_top import WindFarmReplay          # noqa: E402
-from rast.model.fixedpoint import ReplayContract        # noqa: E402
+from rast.model.contract.fixedpoint import ReplayContract        # noqa: E402
 
 CELLS = ("LUT4", "TRELLIS_FF", "CCU2C", "MULT18X18D", "ALU54B", "DP16KD", "TRELLIS_DPR16X4",
          "PFUMX", "L6MUX21")

@@ -7,7 +7,7 @@ that does not depend on the scatterer (β, sin β, the blade-flash weights, the
 tower's shadow) computed once per blade, in chunks of ``LOOP_CHUNK`` samples.
 The reference only computes m(t) (no quantisation, no files), so the
 speed-ups are conservative. Its output is checked against
-:func:`rast.model.turbine.modulation_reference` (the equations as read) and
+:func:`rast.model.physics.turbine.modulation_reference` (the equations as read) and
 RAST's against the same, as an RMS error in dBc (relative to the RMS of m).
 
 1. seed mode: one word per RTS sample, one 3-blade × 15-scatterer 15 rpm
@@ -45,11 +45,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rast.model.config import load_config, parse_config
-from rast.model.ramfiles import make_farm_files
-from rast.model.stream import build_farm_streams, plan_stream, stream_times
-from rast.model.synthesis import synthesise_period
-from rast.model.turbine import blade_angles, modulation_reference, point_weights, shadow_factor, wire_return
+from rast.model.physics.farm import load_config, parse_config
+from rast.model.files.ramfiles import make_farm_files
+from rast.model.physics.stream import build_farm_streams, plan_stream, stream_times
+from rast.model.physics.synthesis import synthesise_period
+from rast.model.physics.turbine import (blade_angles, modulation_reference, point_weights, shadow_factor,
+                                        wire_return)
 
 #: Samples per chunk of the loop (its fastest of 2**12 ... 2**18 on a 2-core x86 machine).
 LOOP_CHUNK = 1 << 14

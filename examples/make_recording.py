@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rast.model.recording import synthetic_recording
+from rast.model.physics.recording import synthetic_recording
 
 if __name__ == "__main__":
     path = Path(__file__).with_name("recording_15rpm.npy")

@@ -19,9 +19,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rast.model.config import SPEED_OF_LIGHT_M_S as C, parse_config  # noqa: E402
-from rast.model.radar import receive  # noqa: E402
-from rast.model.stream import build_farm_streams  # noqa: E402
+from rast.model.physics.config import SPEED_OF_LIGHT_M_S as C
+from rast.model.physics.farm import parse_config  # noqa: E402
+from rast.model.radar.receiver import receive  # noqa: E402
+from rast.model.physics.stream import build_farm_streams  # noqa: E402
 
 
 def db(p):

@@ -1,6 +1,6 @@
 """UART host bridge: the register-bus initiator behind ``rast load``.
 
-Protocol: :mod:`rast.model.hostproto` (the host side, shared by the loader and
+Protocol: :mod:`rast.model.contract.hostproto` (the host side, shared by the loader and
 the simulation tests). The bridge is the only master of the replay block's
 register bus (:class:`rast.hdl.registers.BusSignature`).
 """
@@ -12,8 +12,8 @@ from amaranth.lib.wiring import In, Out
 
 from ..hdl.ecp5_primitives import kept_register
 from ..hdl.registers import BusSignature
-from ..model.hostproto import (CMD_WRITE, CMD_BURST, CMD_READ, CMD_VERSION, ACK, BRIDGE_ID,
-                               TX_FIFO_DEPTH)
+from rast.model.contract.hostproto import (CMD_WRITE, CMD_BURST, CMD_READ, CMD_VERSION, ACK, BRIDGE_ID,
+                                           TX_FIFO_DEPTH)
 from .uart import UARTRx, UARTTx
 
 __all__ = ["UARTBridge"]

@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass, field, asdict
 from pathlib import Path
 
-from ..model.fixedpoint import ReplayContract, POOL_BACKENDS, SDRAM_CLOCK_HZ, SDRAM_MAX_POOL_WORDS
+from rast.model.contract.fixedpoint import ReplayContract, POOL_BACKENDS, SDRAM_CLOCK_HZ, SDRAM_MAX_POOL_WORDS
 from .capacity import DEVICE_BLOCKS, total_blocks, total_dsps
 from .platforms import make_platform
 from .top import BoardTop, DEFAULT_BAUD, board_pll_params

@@ -12,7 +12,7 @@ step, I and Q).
 """
 
 from ..hdl.ecp5_primitives import dp16kd_mode
-from ..model.fixedpoint import ReplayContract, POOL_BANK_WORDS, pool_words_for, min_stream_length
+from rast.model.contract.fixedpoint import ReplayContract, POOL_BANK_WORDS, pool_words_for, min_stream_length
 
 __all__ = ["ram_blocks", "pool_blocks", "common_blocks", "pipeline_blocks", "total_blocks",
            "pipeline_dsps", "total_dsps", "max_channels", "turbines_per_device", "DEVICE_BLOCKS"]

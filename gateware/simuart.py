@@ -1,4 +1,4 @@
-"""A UART transport into the Amaranth simulator, for :class:`rast.model.hostproto.HostBridge`.
+"""A UART transport into the Amaranth simulator, for :class:`rast.model.contract.hostproto.HostBridge`.
 
 ``SimUART(dut, divisor)`` runs a :class:`~amaranth.sim.Simulator` of ``dut``
 (a component with ``rx``/``tx`` UART lines in the ``sync`` domain) step by

@@ -33,8 +33,8 @@ from amaranth.lib.wiring import In, Out
 from ..hdl.iq import IQ
 from ..hdl.ecp5_primitives import kept_register
 from ..hdl.replay_top import WindFarmReplay
-from ..model.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG, SDRAM_CLOCK_HZ, reset_slot
-from ..model.hostproto import DEFAULT_BAUD
+from rast.model.contract.fixedpoint import INPUT_WIDTH, OUTPUT_WIDTH, PIN_LAG, SDRAM_CLOCK_HZ, reset_slot
+from rast.model.contract.hostproto import DEFAULT_BAUD
 from .bridge import UARTBridge
 from .pll import ECP5PLL, pll_params
 from .uart import divisor as uart_divisor
@@ -159,7 +159,7 @@ class SampleIO(wiring.Component):
     ``dac_clk`` is high, Q while it is low.
 
     Latency, ADC pin sample to DAC pin sample, in samples:
-    ``rast.model.fixedpoint.board_latency`` (checked by
+    ``rast.model.contract.fixedpoint.board_latency`` (checked by
     ``tests/test_cosim_board_io.py``).
 
     Parameters

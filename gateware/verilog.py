@@ -13,8 +13,8 @@ from __future__ import annotations
 import os
 import subprocess
 from pathlib import Path
-from rast.model.fixedpoint import ReplayContract
-from rast.model.outputs import write_text
+from rast.model.contract.fixedpoint import ReplayContract
+from rast.model.files.outputs import write_text
 
 __all__ = ["VERILATOR_WAIVERS", "PCH_MAKE_FIX", "verilator_warning_args", "setup_verilator",
            "build_verilated", "verilog_text", "write_verilog", "lint"]

@@ -13,13 +13,14 @@ from .ecp5_primitives import RegisteredMultiplier, kept_register, kept_lut
 from .delay_line import DelayLine
 from .arrival_check import ArrivalCheck
 from .register_chain import delayed
-from ..model.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
-                                INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD, FIR_COEF_WIDTH,
-                                FIR_COEF_FRAC, FIR_ACC_WIDTH, FIR_REFILL_SAMPLES, CACHE_WORDS,
-                                CACHE_FILL_WORDS, PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH,
-                                WINDOW_LAG, WORD_CYCLES, GAIN_CYCLES, CMULT_CYCLES,
-                                MAC_RESULT_CYCLES, fir_coefficients, mac_merge_cycles, visit_cycles)
-from ..model.powerup import ChannelInit
+from rast.model.contract.fixedpoint import (ReplayContract, STREAM_WIDTH, INPUT_WIDTH, PHASE_FRAC_BITS,
+                                            INTERP_FRAC_BITS, FIR_PHASE_BITS, FIR_TAPS, FIR_LEAD,
+                                            FIR_COEF_WIDTH, FIR_COEF_FRAC, FIR_ACC_WIDTH,
+                                            FIR_REFILL_SAMPLES, CACHE_WORDS, CACHE_FILL_WORDS,
+                                            PRODUCT_SHIFT, GAIN_SHIFT, SCALED_WIDTH, WINDOW_LAG,
+                                            WORD_CYCLES, GAIN_CYCLES, CMULT_CYCLES, MAC_RESULT_CYCLES,
+                                            fir_coefficients, mac_merge_cycles, visit_cycles)
+from rast.model.contract.powerup import ChannelInit
 
 __all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "accept_clock", "COMMON_OUT_CYCLES",
            "MIRROR_LAG", "REQUEST_CYCLES"]
@@ -183,8 +184,8 @@ class ChannelPipeline(wiring.Component):
     asking the pool for its next words into the slot's part of the word
     cache, and (FIR) the jobs of the serial multiplier-accumulator that
     computes the intermediate values U[J..J+2]. Its rules are the contract's
-    (``rast.model.fixedpoint``) and the bit-exact model's
-    (``rast.model.datapath.ReplayModel``).
+    (``rast.model.contract.fixedpoint``) and the bit-exact model's
+    (``rast.model.contract.datapath.ReplayModel``).
 
     Parameters
     ----------

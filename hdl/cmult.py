@@ -6,7 +6,7 @@ from amaranth.lib.wiring import In, Out
 
 from .iq import IQ
 from .ecp5_primitives import RegisteredMultiplier, kept_register
-from ..model.fixedpoint import CMULT_CYCLES
+from rast.model.contract.fixedpoint import CMULT_CYCLES
 
 __all__ = ["ComplexMultiplier"]
 

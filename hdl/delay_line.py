@@ -5,7 +5,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from .ecp5_primitives import RegisteredRAM, kept_register, dp16kd_mode
-from ..model.fixedpoint import delay_depth
+from rast.model.contract.fixedpoint import delay_depth
 
 __all__ = ["DelayLine"]
 

@@ -12,7 +12,7 @@ __all__ = ["IQ"]
 def IQ(width: int) -> data.StructLayout:
     """Layout of a complex sample with signed ``width``-bit parts, I in the low half.
 
-    The packed value equals :func:`rast.model.fixedpoint.pack_iq` of the parts.
+    The packed value equals :func:`rast.model.contract.fixedpoint.pack_iq` of the parts.
     """
     if not isinstance(width, int) or isinstance(width, bool) or width <= 0:
         raise TypeError(f"I/Q width must be a positive integer, not {width!r}")

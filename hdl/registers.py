@@ -1,12 +1,12 @@
-"""Memory-mapped register file, generated from ``rast.model.regmap``."""
+"""Memory-mapped register file, generated from ``rast.model.contract.regmap``."""
 
 from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array, Value
 from amaranth.lib import wiring, data
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from ..model.regmap import RegisterMap, CRC32_POLY, STORED, CHANNEL_BASE, CHANNEL_STRIDE
-from ..model.fixedpoint import STREAM_WIDTH, REGISTER_STAGING
+from rast.model.contract.regmap import RegisterMap, CRC32_POLY, STORED, CHANNEL_BASE, CHANNEL_STRIDE
+from rast.model.contract.fixedpoint import STREAM_WIDTH, REGISTER_STAGING
 from .ecp5_primitives import kept_register
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).

@@ -18,12 +18,13 @@ from .pool_check import PoolReadCheck
 from .registered_fifo import RegisteredFIFO
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
-from ..model.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG, ACCEPT_LAG,
-                                POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH, SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS,
-                                REGISTER_STAGING, WRITE_STAGING, take_interval, tree_cycles, tree_operand_registers, visit_cycles,
-                                reset_slot)
-from ..model.regmap import register_map
-from ..model.powerup import ChannelInit, pool_contents
+from rast.model.contract.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG,
+                                            ACCEPT_LAG, POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH,
+                                            SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS, REGISTER_STAGING,
+                                            WRITE_STAGING, take_interval, tree_cycles,
+                                            tree_operand_registers, visit_cycles, reset_slot)
+from rast.model.contract.regmap import register_map
+from rast.model.contract.powerup import ChannelInit, pool_contents
 
 __all__ = ["WindFarmReplay", "SDRAM_ADDRESS_WIDTH"]
 
@@ -52,14 +53,14 @@ class WindFarmReplay(wiring.Component):
     ``take_interval(M)`` clocks, whole periods, so that a write lands
     between two steps for every channel (``WRITE_STAGING`` clocks after it
     was taken, in an accepting clock).
-    Bit-exact model: :class:`rast.model.datapath.ReplayModel`.
+    Bit-exact model: :class:`rast.model.contract.datapath.ReplayModel`.
 
     Parameters
     ----------
     channels : int
         N, 1 to ReplayContract.MAX_CHANNELS.
     slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz, pool :
-        See :class:`rast.model.fixedpoint.ReplayContract`. With ``pool="sdram"``
+        See :class:`rast.model.contract.fixedpoint.ReplayContract`. With ``pool="sdram"``
         the streams are fetched through :class:`~rast.hdl.sdram_pool.SDRAMStreamPool`
         whose native port is ``native`` in the clock domain ``sdram`` (the
         parent defines it and connects a LiteDRAM core); there are no
@@ -76,7 +77,7 @@ class WindFarmReplay(wiring.Component):
     i : In(stream.Signature(IQ(16)))
     o : Out(stream.Signature(IQ(16)))
     bus : In(BusSignature(addr_width))
-        Register access (map: ``rast.model.regmap``, ``docs/registers.md``).
+        Register access (map: ``rast.model.contract.regmap``, ``docs/registers.md``).
     overflow : Out(1)
         Sticky saturation flag (cleared by reading STATUS).
     slot : Out(range(slots))

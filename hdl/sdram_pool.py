@@ -10,7 +10,7 @@ from .crossing_queue import CrossingQueue
 
 __all__ = ["native_port_signature", "SDRAMStreamPool", "WORD_WIDTH"]
 
-#: A stream word: I in the low 16 bits, Q in the high 16 (model/fixedpoint.py's STREAM_WIDTH × 2).
+#: A stream word: I in the low 16 bits, Q in the high 16 (model/contract/fixedpoint.py's STREAM_WIDTH × 2).
 WORD_WIDTH = 32
 
 

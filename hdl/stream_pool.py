@@ -8,7 +8,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from .ecp5_primitives import RegisteredRAM, kept_register, block_ram_rows, dp16kd_mode
-from ..model.fixedpoint import STREAM_WIDTH, POOL_BANK_WORDS
+from rast.model.contract.fixedpoint import STREAM_WIDTH, POOL_BANK_WORDS
 
 __all__ = ["StreamPool"]
 

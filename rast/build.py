@@ -26,7 +26,7 @@ def add_arguments(p):
     g.add_argument("--speed", default="6", help="plain device speed grade (default 6)")
     g.add_argument("--pinmap", help="JSON pin map for a plain device (default: the ULX3S balls)")
     from rast.gateware.build import BuildConfig, FABRIC_CLOCK_MHZ
-    from rast.model.fixedpoint import SDRAM_MAX_POOL_WORDS
+    from rast.model.contract.fixedpoint import SDRAM_MAX_POOL_WORDS
     dflt = BuildConfig()
     d = p.add_argument_group("design")
     # --pool-words: None unless given, so that --sdram can default to the whole SDRAM

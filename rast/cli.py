@@ -14,7 +14,8 @@ from pathlib import Path
 # 3 s more that way (docs/stream_synthesis.md). A value the user set wins.
 os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
 
-from rast.model.config import ConfigError, load_config  # noqa: E402
+from rast.model.physics.config import ConfigError
+from rast.model.physics.farm import load_config  # noqa: E402
 from rast.errors import UserError, check_output, positive_hz  # noqa: E402
 
 
@@ -34,7 +35,7 @@ class _StreamProgress:
     def __init__(self, farm):
         import threading
         import time
-        from rast.model.stream import plan_stream
+        from rast.model.physics.stream import plan_stream
         self.total = sum(plan_stream(w, farm).length for w in farm.windmills)
         self.clock = time.monotonic
         self.start = self.last = self.clock()
@@ -71,7 +72,7 @@ def _default_build_fit(farm_streams) -> str:
     or the first thing that does not fit."""
     import dataclasses
     from rast.gateware.build import BuildConfig
-    from rast.model.loadplan import manifest_to_register_writes, pool_layout
+    from rast.model.contract.loadplan import manifest_to_register_writes, pool_layout
     cfg = BuildConfig()
     c = dataclasses.replace(cfg.contract(), sample_rate_hz=round(cfg.sample_rate_mhz * 1e6))
     what = (f"the default bitstream ({c.channels} channels, {cfg.sample_rate_mhz:g} MS/s, a stream pool "
@@ -87,9 +88,9 @@ def _default_build_fit(farm_streams) -> str:
 
 def cmd_stream(args) -> int:
     from rast.errors import read_build
-    from rast.model.ramfiles import make_farm_files
-    from rast.model.loadplan import manifest_to_register_writes
-    from rast.model.stream import farm_for_build
+    from rast.model.files.ramfiles import make_farm_files
+    from rast.model.contract.loadplan import manifest_to_register_writes
+    from rast.model.physics.stream import farm_for_build
 
     check_output(args.out, folder=True, option="--out")
     farm = load_config(args.config)
@@ -105,7 +106,7 @@ def cmd_stream(args) -> int:
             except ValueError as error:
                 raise UserError(f"the streams do not fit the build {args.build}: {error}") from None
 
-    # The files are written while the streams are computed (rast.model.ramfiles).
+    # The files are written while the streams are computed (rast.model.files.ramfiles).
     try:
         farm_streams, written = make_farm_files(farm, args.out, build=contract, formats=args.format,
                                                 progress=progress, check=fits_the_build)
@@ -134,11 +135,11 @@ def cmd_stream(args) -> int:
 
 
 def cmd_preview(args) -> int:
-    from rast.model.outputs import atomic_file
-    from rast.model.plot import MAX_PANELS, save_preview, save_range_doppler
-    from rast.model.radar import MAX_PREVIEW_SAMPLES, range_bins, receive, spectrogram
-    from rast.model.sfdr import farm_sfdr
-    from rast.model.stream import build_farm_streams
+    from rast.model.files.outputs import atomic_file
+    from rast.model.radar.plot import MAX_PANELS, save_preview, save_range_doppler
+    from rast.model.radar.receiver import MAX_PREVIEW_SAMPLES, range_bins, receive, spectrogram
+    from rast.model.radar.sfdr import farm_sfdr
+    from rast.model.physics.stream import build_farm_streams
 
     check_output(args.out, folder=False, option="--out")
     farm = load_config(args.config)
@@ -164,7 +165,7 @@ def cmd_preview(args) -> int:
     map_view = args.range_doppler or len(bins) > MAX_PANELS
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    try:                  # the PNG appears whole or not at all (rast.model.outputs)
+    try:                  # the PNG appears whole or not at all (rast.model.files.outputs)
         with atomic_file(out) as png:
             if map_view:
                 save_range_doppler(farm, bins, spectra, png, dynamic_range_db=args.dynamic_range,
@@ -196,7 +197,7 @@ def cmd_preview(args) -> int:
 
 def _formats(text: str) -> tuple[str, ...]:
     """argparse type of --format: a comma-separated list of RAM file formats."""
-    from rast.model.ramfiles import FORMATS
+    from rast.model.files.ramfiles import FORMATS
     chosen = tuple(f.strip().lower() for f in text.split(",") if f.strip())
     bad = [f for f in chosen if f not in FORMATS]
     if not chosen or bad:
@@ -205,10 +206,11 @@ def _formats(text: str) -> tuple[str, ...]:
 
 
 def cmd_import(args) -> int:
-    from rast.model.config import Radar
-    from rast.model.fixedpoint import min_stream_length
-    from rast.model.ramfiles import write_farm_files
-    from rast.model import recording as rec
+    from rast.model.physics.config import Radar
+    from rast.model.contract.fixedpoint import min_stream_length
+    from rast.model.files.ramfiles import write_farm_files
+    from rast.model.physics import recording as rec
+    from rast.model.radar.receiver import spectrogram_correlation
 
     check_output(args.out, folder=True, option="--out")
     if args.blades < 1:
@@ -257,7 +259,7 @@ def cmd_import(args) -> int:
             loop, name=name, range_km=args.range, num_blades=args.blades,
             sample_rate_mhz=args.sample_rate, radar=Radar(frequency_mhz, prf, cpi_ms=args.cpi),
             interpolation=args.interpolation)
-        correlation = rec.spectrogram_correlation(recording.samples, loop, farm_streams)
+        correlation = spectrogram_correlation(recording.samples, loop, farm_streams)
     except rec.RecordingError as error:
         raise UserError(f"{args.recording}: {error}") from None
     try:

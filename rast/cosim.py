@@ -12,7 +12,7 @@ output with the bit-exact model, and writes to ``--out``:
 * ``report.txt`` and ``report.json``: samples compared, mismatches, run time,
   simulated samples per second, each windmill's maximum Doppler, the PRF
   (``prf_hz``), the gates' ranges (``gates_km``) and the SFDR of the RTL's
-  samples (``rast.model.sfdr``) per gate (``sfdr``) and the worst (``sfdr_db``);
+  samples (``rast.model.radar.sfdr``) per gate (``sfdr``) and the worst (``sfdr_db``);
 * ``gates.npy``: the RTL's output at each gate's sample, complex128 of shape
   (pulses, gates);
 * ``e2e.npz``: the per-pulse samples of RTL and model.
@@ -78,9 +78,9 @@ def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from rast.model.outputs import atomic_file
-    from rast.model.plot import STACKED_PANELS, gate_title, save_gate_grid
-    from rast.model.turbine import max_doppler_hz
+    from rast.model.files.outputs import atomic_file
+    from rast.model.radar.plot import STACKED_PANELS, gate_title, save_gate_grid
+    from rast.model.physics.turbine import max_doppler_hz
     times, dopp = data["times_s"], data["doppler_hz"]
     half_bin = (dopp[1] - dopp[0]) / 2 if dopp.size > 1 else 0.5
     band = (dopp[0] - half_bin, dopp[-1] + half_bin)
@@ -142,7 +142,7 @@ MAX_COSIM_SAMPLES = 1 << 31
 def _check_options(args, farm) -> None:
     """Every option, before anything is built or created (UserError)."""
     from rast.errors import UserError, check_output
-    from rast.model.fixedpoint import ReplayContract
+    from rast.model.contract.fixedpoint import ReplayContract
     finite = lambda v: v == v and abs(v) != float("inf")
     if not (finite(args.seconds) and args.seconds > 0):
         raise UserError(f"--seconds must be a positive number of seconds, not {args.seconds:g}")
@@ -172,12 +172,13 @@ def _check_options(args, farm) -> None:
 def run(args) -> int:
     import numpy as np
     from rast.errors import UserError
-    from rast.model.config import ConfigError, load_config
+    from rast.model.physics.config import ConfigError
+    from rast.model.physics.farm import load_config
     from rast.sim import runner
     from rast.sim.e2e import prepare
     from rast.sim.netlist import replay_netlist_sources
     from rast.sim.top import sdram_engine_top_sources, top_sources
-    from rast.model.outputs import atomic_file, write_bytes, write_text
+    from rast.model.files.outputs import atomic_file, write_bytes, write_text
     try:
         farm = load_config(args.config)            # before anything is created
         _check_options(args, farm)

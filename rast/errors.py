@@ -14,7 +14,7 @@ import os
 import re
 from pathlib import Path
 
-from rast.model.regmap import stream_crc32
+from rast.model.contract.regmap import stream_crc32
 
 __all__ = ["UserError", "read_json", "read_manifest", "manifest_streams", "check_output"]
 
@@ -52,7 +52,7 @@ def _is_int(v) -> bool:
 def read_build(path):
     """The replay block a bitstream was built for: ``report.json``'s ``build``
     (written by ``rast build``), as a :class:`ReplayContract`."""
-    from rast.model.fixedpoint import ReplayContract
+    from rast.model.contract.fixedpoint import ReplayContract
     report = read_json(path, "build report")
     build = report.get("build") if isinstance(report, dict) else None
     _need(isinstance(build, dict), str(path), "has no 'build' section: give the report.json "
@@ -160,9 +160,9 @@ def check_output(path, *, folder: bool, option: str) -> Path:
 
     ``folder``: the output is a folder (it may exist) rather than a file (it
     may exist as a regular file, and is replaced; a device, FIFO or folder in
-    its place is refused: ``rast.model.outputs``). ``option`` names the argument.
+    its place is refused: ``rast.model.files.outputs``). ``option`` names the argument.
     """
-    from rast.model.outputs import OutputError, check_target
+    from rast.model.files.outputs import OutputError, check_target
     if not str(path).strip():
         raise UserError(f"{option} is empty: give a {'folder' if folder else 'file'} name")
     path = Path(path)

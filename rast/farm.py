@@ -2,7 +2,7 @@
 
 ``rast farm LAYOUT.csv --radar LAT,LON,HEIGHT_M --wind-from DEG --out farm.toml``
 reads the layout (USWTDB columns, lon/lat or x/y in metres), places every
-turbine as the radar sees it (``rast.model.layout``) and writes one
+turbine as the radar sees it (``rast.model.physics.layout``) and writes one
 ``[[windmill]]`` per turbine, ready for ``rast stream``; see
 ``docs/farm_layouts.md``. This module only parses the arguments and calls the model.
 """
@@ -15,7 +15,7 @@ import tomllib
 from pathlib import Path
 
 from rast.errors import UserError, check_output, positive_hz
-from rast.model.outputs import write_text
+from rast.model.files.outputs import write_text
 
 __all__ = ["add_arguments", "run"]
 
@@ -68,7 +68,7 @@ def _bearing(text: str) -> float:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from rast.model.layout import FarmSettings, TURBINE_CLASSES
+    from rast.model.physics.layout import FarmSettings, TURBINE_CLASSES
     d = FarmSettings()
     parser.add_argument("layout", help="CSV: USWTDB columns (xlong, ylat, t_hh, t_rd, ...), lon/lat or x/y in m")
     parser.add_argument("--radar", required=True, type=_triple, metavar="LAT,LON,HEIGHT_M",
@@ -100,8 +100,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from rast.model.config import parse_config
-    from rast.model.layout import FarmSettings, RadarSite, TURBINE_CLASSES, make_farm, read_layout
+    from rast.model.physics.farm import parse_config
+    from rast.model.physics.layout import FarmSettings, RadarSite, TURBINE_CLASSES, make_farm, read_layout
 
     check_output(args.out, folder=False, option="--out")
     layout = read_layout(args.layout)

@@ -24,11 +24,12 @@ import sys
 import time
 
 from rast.errors import UserError, manifest_streams, read_manifest
-from rast.model.fixedpoint import INTERPOLATIONS, ReplayContract
-from rast.model.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, ProtocolError, line_bytes
-from rast.model.regmap import ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED, APPLIED_LSB
-from rast.model.datapath import ONE
-from rast.model.loadplan import NoRoomBeside, manifest_to_register_writes
+from rast.model.contract.fixedpoint import INTERPOLATIONS, ReplayContract
+from rast.model.contract.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, ProtocolError, line_bytes
+from rast.model.contract.regmap import (ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED,
+                                        APPLIED_LSB)
+from rast.model.contract.datapath import ONE
+from rast.model.contract.loadplan import NoRoomBeside, manifest_to_register_writes
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
            "send_writes", "read_status", "verify_pool", "stream_runs", "playing_streams", "stream_segments",

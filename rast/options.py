@@ -4,7 +4,7 @@ from __future__ import annotations
 
 __all__ = ["REPLAY_OPTIONS", "add_replay_arguments", "replay_kwargs"]
 
-#: The :class:`rast.model.fixedpoint.ReplayContract` parameters the options set (but ``channels``).
+#: The :class:`rast.model.contract.fixedpoint.ReplayContract` parameters the options set (but ``channels``).
 REPLAY_OPTIONS = ("pool_words", "max_delay", "max_tap", "interpolation", "cmult_form")
 #: ``slots`` too, where the command takes it directly (not from clocks).
 
@@ -16,7 +16,7 @@ def add_replay_arguments(parser, *, channels: int, defaults=None, slots: bool = 
     ``--cmult-form`` to ``parser`` (a parser or an argument group); the
     defaults are ``defaults``' (any object with those attributes) or
     :class:`ReplayContract`'s."""
-    from rast.model.fixedpoint import ReplayContract
+    from rast.model.contract.fixedpoint import ReplayContract
     d = defaults or ReplayContract()
     parser.add_argument("--channels", type=int, default=channels,
                         help=f"windmill channels N (default {channels})")

@@ -28,7 +28,7 @@ def run(args):
     :class:`rast.errors.UserError` before the output is touched."""
     from rast.errors import UserError, check_output, manifest_streams, read_manifest
     from rast.gateware.verilog import lint, write_verilog
-    from rast.model.fixedpoint import ReplayContract
+    from rast.model.contract.fixedpoint import ReplayContract
     from rast.options import replay_kwargs
     kwargs = replay_kwargs(args)
     try:
@@ -40,7 +40,7 @@ def run(args):
     check_output(args.output, folder=False, option="--output")
     extra = []
     if args.manifest:
-        from rast.model.loadplan import manifest_channel_inits
+        from rast.model.contract.loadplan import manifest_channel_inits
         manifest, manifest_file = read_manifest(args.manifest)
         streams = manifest_streams(manifest, manifest_file.parent)
         try:

@@ -1,9 +1,9 @@
 """End to end: a farm config, sampled radar pulses through the RTL, a radar receiver.
 
 :func:`prepare` turns a config into a bulk :class:`~rast.sim.scenario.Scenario`:
-the golden model's streams, delays and gains (``rast.model.stream``) loaded
+the golden model's streams, delays and gains (``rast.model.physics.stream``) loaded
 by ``manifest_to_register_writes`` at sample 0, and ``seconds`` of radar time
-of sampled pulses (:mod:`rast.model.pulses`, seed Table 4.1's chirp where the
+of sampled pulses (:mod:`rast.model.radar.pulses`, seed Table 4.1's chirp where the
 sample rate allows it). Every RTS sample of that time line goes through the
 DUT (the stream phase advances per sample, so idle time cannot be skipped);
 only each pulse's own samples cross the file boundary, the wrapper fills the
@@ -11,7 +11,7 @@ idle time with zeros.
 
 The radar receiver keeps one sample per pulse at each range gate, i.e. at
 each distinct windmill delay plus half a pulse (the middle of the echo), and
-computes the micro-Doppler spectrogram (``rast.model.radar.spectrogram``) of
+computes the micro-Doppler spectrogram (``rast.model.radar.receiver.spectrogram``) of
 the RTL's samples and of the model's. :func:`doppler_check` compares each
 windmill's maximum Doppler in the RTL spectrogram with the physics.
 """
@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rast.model.fixedpoint import ReplayContract, pool_words_for
-from rast.model.pulses import PulseConfig, generate
-from rast.model.loadplan import manifest_to_register_writes, pool_layout, stream_writes
-from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
+from rast.model.contract.fixedpoint import ReplayContract, pool_words_for
+from rast.model.radar.pulses import PulseConfig, generate
+from rast.model.contract.loadplan import manifest_to_register_writes, pool_layout, stream_writes
+from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
 
 from .bulk import MAX_CAP, BulkJob
 from .scenario import Scenario
@@ -93,8 +93,8 @@ def reload_writes(farm_streams, c: ReplayContract, at: int, first_base: int) -> 
 def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots: int = 1,
             pool: str = "bram", reload_s: float | None = None, amplitude: float = 0.4,
             noise_rms: float = 0.0, seed: int = 1, gap_thresh: int = 4, stall_thresh: int = 4) -> E2E:
-    from rast.model.config import load_config
-    from rast.model.stream import build_farm_streams
+    from rast.model.physics.farm import load_config
+    from rast.model.physics.stream import build_farm_streams
     farm = load_config(config)
     fs = build_farm_streams(farm)
     manifest = fs.manifest()
@@ -170,7 +170,7 @@ def gate_windmills(e: E2E, g: int) -> list[int]:
 
 
 def gate_sfdr(e: E2E, samples: np.ndarray) -> dict:
-    """SFDR (:mod:`rast.model.sfdr`) of per-pulse samples of shape (gates, pulses), per gate and the worst.
+    """SFDR (:mod:`rast.model.radar.sfdr`) of per-pulse samples of shape (gates, pulses), per gate and the worst.
 
     Each gate excludes the largest maximum Doppler of the windmills received at
     its sample. Returns ``{}`` with less than one CPI of pulses, and
@@ -178,8 +178,8 @@ def gate_sfdr(e: E2E, samples: np.ndarray) -> dict:
     band leaves nothing to measure; an SFDR with no line at all outside the
     band (+inf) is reported as ``None`` too.
     """
-    from rast.model.radar import RangeBin
-    from rast.model.sfdr import farm_sfdr
+    from rast.model.radar.receiver import RangeBin
+    from rast.model.radar.sfdr import farm_sfdr
     r = e.farm.radar
     if samples.shape[1] < int(round(r.cpi_ms * 1e-3 * r.prf_hz)):
         return {}
@@ -215,7 +215,7 @@ def _scatterer_dopplers(windmill, wavelength_m: float, t_s: np.ndarray) -> np.nd
     """Instantaneous Doppler (Hz) of every blade's every followed part (:func:`_reach_m`)
     at t, shape (blades × parts, T): ``f = 2·ω·r·cos(rotor)·cos(β_b(t))/λ``, the
     derivative of φ = −4πΔR/λ."""
-    from rast.model.turbine import blade_angles
+    from rast.model.physics.turbine import blade_angles
     omega = 2 * np.pi * windmill.rpm / 60.0
     beta = blade_angles(windmill, t_s)                                  # (blades, T)
     r = _reach_m(windmill)[:, None, None]                               # (parts, 1, 1)

@@ -171,8 +171,8 @@ def replay_netlist_sources(channels: int, *, pool_words: int, max_delay: int, ma
     """
     from rast.gateware.platforms import make_platform
     from rast.hdl.replay_top import WindFarmReplay
-    from rast.model.fixedpoint import ReplayContract
-    from rast.model.regmap import register_map
+    from rast.model.contract.fixedpoint import ReplayContract
+    from rast.model.contract.regmap import register_map
     from .bulk import bulk_verilog
     from .top import TOP_MODULE, port_map
     kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,

@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rast.model.datapath import ReplayModel
-from rast.model.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
 
 __all__ = ["Damage", "PtyBoard", "frame_length"]
 

@@ -1,11 +1,11 @@
 """Scenarios for the wind-farm top: stimulus, register script, and the model's answer.
 
 A :class:`Scenario` is everything one bulk run needs: the elaboration
-parameters (:class:`~rast.model.fixedpoint.ReplayContract`), the
+parameters (:class:`~rast.model.contract.fixedpoint.ReplayContract`), the
 :class:`~rast.sim.bulk.BulkJob` (input words, idle pattern, register script,
 valid gaps, capture plan) and a name. :func:`model_outputs` replays the same
 input sequence and register script through the bit-exact model
-(:class:`~rast.model.datapath.ReplayModel`): a write scripted "at sample n"
+(:class:`~rast.model.contract.datapath.ReplayModel`): a write scripted "at sample n"
 is issued after sample n-1 and before sample n, which is exactly what the
 wrapper does in the RTL (it never writes in a cycle that transfers a sample).
 """
@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rast.model import fixedpoint as fx
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract
-from rast.model.pulses import PulseConfig, generate
-from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
-from rast.model.loadplan import manifest_to_register_writes, pool_layout, free_region, stream_writes
+from rast.model.contract import fixedpoint as fx
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract
+from rast.model.radar.pulses import PulseConfig, generate
+from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
+from rast.model.contract.loadplan import manifest_to_register_writes, pool_layout, free_region, stream_writes
 
 from .bulk import BulkJob
 
@@ -280,10 +280,10 @@ def random_scenario(channels: int, seed: int, *, kind: str = "random", pulses: i
 def farm_scenario(channels: int, seed: int, *, pulses: int = 30, gap_thresh: int = 32,
                   stall_thresh: int = 32, contract: dict | None = None) -> Scenario:
     """A random farm built by the golden model (streams, delays, gains from
-    ``rast.model.stream``), loaded with ``manifest_to_register_writes``,
+    ``rast.model.physics.stream``), loaded with ``manifest_to_register_writes``,
     then reloaded mid-run with a second random farm's streams."""
-    from rast.model.config import parse_config
-    from rast.model.stream import build_farm_streams
+    from rast.model.physics.farm import parse_config
+    from rast.model.physics.stream import build_farm_streams
     rng = np.random.default_rng(seed)
     c = ReplayContract(channels=channels, **(contract or TEST_CONTRACT))
     fs_mhz = 10.0

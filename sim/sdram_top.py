@@ -27,7 +27,7 @@ from amaranth.lib.wiring import In, Out
 from rast.gateware.sdram.core import LiteDRAMCore
 from rast.gateware.sdram.generate import CORE_NAME, generate_core
 from rast.hdl.sdram_pool import SDRAMStreamPool, WORD_WIDTH
-from rast.model.fixedpoint import SDRAM_CLOCK_HZ, SDRAM_FABRIC_HZ
+from rast.model.contract.fixedpoint import SDRAM_CLOCK_HZ, SDRAM_FABRIC_HZ
 
 __all__ = ["SDRAMPoolTop", "sdram_top_sources", "TOPLEVEL", "LITEDRAM_LINT_WAIVERS",
            "FractionalClock", "OnSimSDRAM", "SDRAMEngineTop", "SDRAMSystemTop", "ENGINE_TOPLEVEL",

@@ -15,7 +15,7 @@ for the second; pin sample k begins at its k-th rising edge.
 * DAC pins: read in the middle of each phase of ``dac_clk``: the I half
   (``dac_iq`` high) in the high phase, the Q half in the low phase; and in
   every half clock of it, to see that the pins hold one value per phase;
-* UART ``rx``: 8N1 frames of :mod:`rast.model.hostproto`, bits of ``divisor``
+* UART ``rx``: 8N1 frames of :mod:`rast.model.contract.hostproto`, bits of ``divisor``
   fabric clocks changing at falling edges; ``tx`` is read at every falling
   edge and decoded after the run.
 
@@ -31,7 +31,7 @@ import json
 import cocotb
 from cocotb.triggers import Timer
 
-from rast.model.hostproto import ACK, group_writes
+from rast.model.contract.hostproto import ACK, group_writes
 from rast.sim.testbench import params, run_dir
 
 QUARTER_NS = 2.5

@@ -11,7 +11,7 @@ from __future__ import annotations
 import cocotb
 import numpy as np
 
-from rast.model import datapath as dp
+from rast.model.contract import datapath as dp
 from rast.sim.testbench import X_VALUE, Scoreboard, StepBench, params, stall_pattern
 
 

@@ -16,7 +16,7 @@ import time
 import cocotb
 import numpy as np
 
-from rast.model.radar import spectrogram
+from rast.model.radar.receiver import spectrogram
 from rast.sim import bulk
 from rast.sim.e2e import doppler_check, gate_sfdr, prepare, receiver, save_json
 from rast.sim.scenario import ModelBeside

@@ -8,7 +8,7 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
-from rast.model.fixedpoint import WRITE_STAGING
+from rast.model.contract.fixedpoint import WRITE_STAGING
 from rast.sim.bulk import PortMap, bulk_verilog
 
 __all__ = ["TOP_MODULE", "port_map", "top_sources", "sdram_engine_top_sources"]
@@ -33,8 +33,8 @@ def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
                 interpolation: str = "fir", cmult_form: str = "4mult", src_aw: int = 22):
     """``({file: text}, toplevel)`` of the replay top inside ``rast_bulk``."""
     from rast.gateware.verilog import verilog_text
-    from rast.model.fixedpoint import ReplayContract
-    from rast.model.regmap import register_map
+    from rast.model.contract.fixedpoint import ReplayContract
+    from rast.model.contract.regmap import register_map
     kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
                   interpolation=interpolation, cmult_form=cmult_form)
     text = _cached_verilog(channels, kwargs, lambda: verilog_text(channels, name=TOP_MODULE, **kwargs))
@@ -55,8 +55,8 @@ def sdram_engine_top_sources(channels: int, *, pool_words: int, max_delay: int, 
     clock at 200 MHz, 16/5 at 160 MHz) unless ``fabric_per_sdram`` says
     otherwise. ``reg_aw`` 20: a million register writes, a stream pool's
     worth (a 64-turbine farm and its reload)."""
-    from rast.model.fixedpoint import ReplayContract
-    from rast.model.regmap import register_map
+    from rast.model.contract.fixedpoint import ReplayContract
+    from rast.model.contract.regmap import register_map
     from rast.sim.sdram_top import ENGINE_TOPLEVEL, sdram_engine_sources
     kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
                   interpolation=interpolation, sample_rate_hz=sample_rate_hz)

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import WRITE_STAGING, unpack_iq
-from rast.model.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import WRITE_STAGING, unpack_iq
+from rast.model.contract.hostproto import ACK, BRIDGE_ID, CMD_BURST, CMD_READ, CMD_VERSION, CMD_WRITE
 
 __all__ = ["ModelBoard", "ChainResult", "run_chain", "host_clocks", "weighted_sums", "burst_train",
            "check_chain", "SDRAMLoadChain", "sdram_load_chain"]
@@ -37,7 +37,7 @@ REPLY_WAIT_BITS = 60
 
 
 class ModelBoard:
-    """A transport for :class:`~rast.model.hostproto.HostBridge` that answers
+    """A transport for :class:`~rast.model.contract.hostproto.HostBridge` that answers
     from a :class:`ReplayModel` and records the conversation."""
 
     def __init__(self, model: ReplayModel):
@@ -253,8 +253,8 @@ def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, pl
     from rast.gateware.sdram.generate import generate_core
     from rast.gateware.uart import MIN_DIVISOR
     from rast.load import load_manifest
-    from rast.model.fixedpoint import pack_iq
-    from rast.model.hostproto import HostBridge
+    from rast.model.contract.fixedpoint import pack_iq
+    from rast.model.contract.hostproto import HostBridge
     from .sdram_top import SDRAMSystemTop
     if cfg.pool != "sdram":
         raise ValueError(f"sdram_load_chain needs a build with pool='sdram', not {cfg.pool!r}")

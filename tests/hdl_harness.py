@@ -12,8 +12,8 @@ import itertools
 import numpy as np
 from amaranth.sim import Simulator
 
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import WRITE_STAGING, take_interval
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import WRITE_STAGING, take_interval
 
 
 def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False):

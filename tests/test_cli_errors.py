@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.regmap import stream_crc32
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq
+from rast.model.contract.regmap import stream_crc32
 
 CONFIG = ('sample_rate = 20\nradar_frequency = 5350\n'
           '[[windmill]]\nname = "a"\nrange = 2.0\nnum_blades = 3\nrpm = 15\nradius = [26.0]\nrsc = [1.0]\n')
@@ -442,7 +442,7 @@ def _model_port(monkeypatch, contract):
     """serial.Serial replaced by a board that answers from the bit-exact model,
     on which time passes: 5000 samples for every reply read."""
     import serial
-    from rast.model.datapath import ReplayModel
+    from rast.model.contract.datapath import ReplayModel
     from rast.sim.uart_chain import ModelBoard
     board = ModelBoard(ReplayModel(contract))
     quiet = np.zeros(5000, dtype=np.int64)
@@ -463,7 +463,7 @@ def _model_port(monkeypatch, contract):
 
 
 def test_load_verify_reads_the_streams_back_out_of_the_sdram(tmp_path, capsys, monkeypatch):
-    from rast.model.regmap import stream_crc32
+    from rast.model.contract.regmap import stream_crc32
     board = _model_port(monkeypatch, ReplayContract(channels=2, pool="sdram", pool_words=1 << 12,
                                                     max_delay=120, max_tap=14))
     write_manifest(tmp_path / "m", lengths=(8, 9), delays=(100, 102), increment=1 << 20)

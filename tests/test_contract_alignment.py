@@ -1,14 +1,14 @@
 """The gateware against a model written only from docs/fixed_point.md
 ("Alignment", "Operations", "The stream word at the multiplier"), in plain
-Python integers: not rast.model.datapath. Driven only through the documented
+Python integers: not rast.model.contract.datapath. Driven only through the documented
 registers; a GAIN write mid-run checks when a gain shows."""
 
 import numpy as np
 import pytest
 
 from rast.hdl.replay_top import WindFarmReplay
-from rast.model.fixedpoint import fir_coefficients, pack_iq
-from rast.model.powerup import ChannelInit
+from rast.model.contract.fixedpoint import fir_coefficients, pack_iq
+from rast.model.contract.powerup import ChannelInit
 
 from hdl_harness import run_replay
 

@@ -17,9 +17,9 @@ import json
 
 import pytest
 
-from rast.model.fixedpoint import ReplayContract, pack_iq, board_input_latency, board_output_latency
-from rast.model.loadplan import manifest_to_register_writes
-from rast.model.regmap import register_map
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq, board_input_latency, board_output_latency
+from rast.model.contract.loadplan import manifest_to_register_writes
+from rast.model.contract.regmap import register_map
 from rast.sim import runner
 from rast.sim.board_io import BUILD_ARGS, board_io_sources
 

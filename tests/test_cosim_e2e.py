@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.config import load_config
-from rast.model.sfdr import sfdr
-from rast.model.turbine import max_doppler_hz
+from rast.model.physics.farm import load_config
+from rast.model.radar.sfdr import sfdr
+from rast.model.physics.turbine import max_doppler_hz
 from rast.sim.e2e import prepare
 from rast.sim.pytest_support import SIMULATOR_PARAMS, cocotb_run
 from rast.sim.top import top_sources

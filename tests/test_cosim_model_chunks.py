@@ -3,10 +3,10 @@ running up to every write's step and then writing, and does not depend on how a 
 
 import numpy as np
 
-from rast.model.datapath import ONE, ReplayModel
-from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.loadplan import stream_writes
-from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP
+from rast.model.contract.datapath import ONE, ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq
+from rast.model.contract.loadplan import stream_writes
+from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP
 from rast.sim import scenario
 
 

@@ -10,9 +10,9 @@ import pytest
 from rast.cli import main
 from rast.gateware.build import BuildConfig, build
 from rast.load import plan_writes, read_manifest_dir
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.loadplan import free_region
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq
+from rast.model.contract.loadplan import free_region
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -61,7 +61,7 @@ def test_make_run_bitstream_load_chain_through_the_uart(tmp_path):
     from rast.gateware.top import ReplaySystem
     from rast.gateware.uart import MIN_DIVISOR
     from rast.load import load_manifest
-    from rast.model.hostproto import HostBridge
+    from rast.model.contract.hostproto import HostBridge
     from rast.sim.uart_chain import ModelBoard, burst_train, check_chain, host_clocks, run_chain
 
     out = tmp_path / "out"

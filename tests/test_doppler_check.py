@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rast.model.config import load_config
-from rast.model.radar import _replayed, receive, spectrogram
-from rast.model.stream import build_farm_streams
+from rast.model.physics.farm import load_config
+from rast.model.radar.receiver import _replayed, receive, spectrogram
+from rast.model.physics.stream import build_farm_streams
 from rast.sim.e2e import E2E, doppler_check, physics_doppler_track, signature_edge_hz
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

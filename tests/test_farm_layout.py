@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.config import load_config, parse_config
-from rast.model.layout import (TURBINE_CLASSES, FarmSettings, RadarSite, azimuth_spread_deg, make_farm,
-                               parse_layout, place_turbines)
+from rast.model.physics.farm import load_config, parse_config
+from rast.model.physics.layout import (TURBINE_CLASSES, FarmSettings, RadarSite, azimuth_spread_deg,
+                                       make_farm, parse_layout, place_turbines)
 
 NREL = TURBINE_CLASSES["nrel-5mw"]
 FLAT = dataclasses.replace(NREL, shaft_tilt_deg=0.0)     # the seed's untilted rotor
@@ -339,7 +339,7 @@ def test_atc_example_fits_the_block_ram_build():
     """64 channels whose streams fit the pool with room to reload the longest while
     all play, whose depth fits the tap window, played by the FIR within its rate
     and seen by the radar without Doppler aliasing."""
-    from rast.model.stream import build_farm_streams
+    from rast.model.physics.stream import build_farm_streams
     farm = load_config(EXAMPLES / "farm_atc_sband.toml")
     assert len(farm.windmills) == 64 and farm.ram_depth == POOL_WORDS
     assert 2700 <= farm.radar.frequency_mhz <= 2900                    # S band, airport surveillance
@@ -364,8 +364,8 @@ def test_a_full_scale_pulse_through_the_atc_farm_does_not_clip(tmp_path, headroo
     bit-exact model of the block then never sets the saturation flag. Without
     that line (gains as at 0 dB, the loudest single echo at full scale) the
     same pulses saturate it."""
-    from rast.model.fixedpoint import OUTPUT
-    from rast.model.stream import build_farm_streams
+    from rast.model.contract.fixedpoint import OUTPUT
+    from rast.model.physics.stream import build_farm_streams
     from rast.sim.e2e import prepare
     from rast.sim.scenario import model_outputs
     text = (EXAMPLES / "farm_atc_sband.toml").read_text()
@@ -392,7 +392,7 @@ def test_a_full_scale_pulse_through_the_atc_farm_does_not_clip(tmp_path, headroo
 def test_preview_draws_a_grid_of_range_bins_or_a_map(tmp_path, capsys):
     """More range bins than fit stacked: a grid of small panels, not one tall
     column; --range-doppler draws the map instead."""
-    from rast.model.plot import STACKED_PANELS
+    from rast.model.radar.plot import STACKED_PANELS
     rows = "\n".join(f"{k * 40},{3000 + 400 * k}" for k in range(10))
     (tmp_path / "l.csv").write_text("x,y\n" + rows + "\n")
     config = tmp_path / "farm.toml"

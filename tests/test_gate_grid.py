@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from rast.cosim import _png
-from rast.model.config import load_config
-from rast.model.plot import STACKED_PANELS, gate_title, grid_columns
+from rast.model.physics.farm import load_config
+from rast.model.radar.plot import STACKED_PANELS, gate_title, grid_columns
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

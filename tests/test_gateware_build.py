@@ -167,7 +167,7 @@ def test_pll_output_errors():
 
 def test_build_config_pool():
     from rast.gateware.build import check
-    from rast.model.fixedpoint import SDRAM_MAX_POOL_WORDS
+    from rast.model.contract.fixedpoint import SDRAM_MAX_POOL_WORDS
     assert BuildConfig().pool == "bram" and BuildConfig().pool_words == 65536
     assert BuildConfig(pool="sdram").pool_words == SDRAM_MAX_POOL_WORDS == 1 << 23
     assert BuildConfig(pool="sdram", pool_words=1 << 20).pool_words == 1 << 20

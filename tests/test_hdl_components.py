@@ -12,11 +12,11 @@ from rast.hdl.cmult import ComplexMultiplier
 from rast.hdl.delay_line import DelayLine
 from rast.hdl.stream_pool import StreamPool
 from rast.hdl.replay_top import WindFarmReplay
-from rast.model.powerup import ChannelInit
+from rast.model.contract.powerup import ChannelInit
 from rast.hdl.iq import IQ
-from rast.model import datapath as dp
-from rast.model.fixedpoint import (pack_iq, unpack_iq, PHASE_FRAC_BITS, POOL_BANK_WORDS, STREAM_WIDTH,
-                                  ReplayContract)
+from rast.model.contract import datapath as dp
+from rast.model.contract.fixedpoint import (pack_iq, unpack_iq, PHASE_FRAC_BITS, POOL_BANK_WORDS,
+                                            STREAM_WIDTH, ReplayContract)
 
 ONE = 1 << PHASE_FRAC_BITS
 

@@ -4,16 +4,16 @@ from pathlib import Path
 
 import numpy as np
 
-from rast.model.datapath import cmult, gain_scale
-from rast.model.fixedpoint import ReplayContract, saturate
-from rast.model.regdoc import registers_doc
+from rast.model.contract.datapath import cmult, gain_scale
+from rast.model.contract.fixedpoint import ReplayContract, saturate
+from rast.model.contract.regdoc import registers_doc
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
 def test_registers_md_is_generated_from_the_map():
     assert (DOCS / "registers.md").read_text() == registers_doc(), \
-        "docs/registers.md is stale: python -m rast.model.regdoc > docs/registers.md"
+        "docs/registers.md is stale: python -m rast.model.contract.regdoc > docs/registers.md"
 
 
 def test_fixed_point_worked_example():

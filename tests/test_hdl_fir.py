@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from rast.hdl.replay_top import WindFarmReplay
-from rast.model import datapath as dp
-from rast.model.fixedpoint import (pack_iq, FIR_MAX_INCREMENT, FIR_MIN_LENGTH, FIR_REFILL_SAMPLES,
-                                   FIR_PHASES, PHASE_FRAC_BITS, STREAM, FIR_LEAD, FIR_COEF_FRAC,
-                                   fir_coefficients)
-from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, stream_crc32
-from rast.model.powerup import ChannelInit
+from rast.model.contract import datapath as dp
+from rast.model.contract.fixedpoint import (pack_iq, FIR_MAX_INCREMENT, FIR_MIN_LENGTH, FIR_REFILL_SAMPLES,
+                                            FIR_PHASES, PHASE_FRAC_BITS, STREAM, FIR_LEAD, FIR_COEF_FRAC,
+                                            fir_coefficients)
+from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP, stream_crc32
+from rast.model.contract.powerup import ChannelInit
 
 from hdl_harness import run_replay, model_replay, assert_same
 

@@ -6,11 +6,11 @@ import time
 import numpy as np
 import pytest
 
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP
-from rast.model.loadplan import stream_writes
-from rast.model.powerup import ChannelInit
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq
+from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP
+from rast.model.contract.loadplan import stream_writes
+from rast.model.contract.powerup import ChannelInit
 
 
 def _random_session(seed, lookback=None):

@@ -10,9 +10,9 @@ from amaranth.hdl import Module, Signal, ResetInserter
 from amaranth.sim import Simulator
 
 from rast.hdl.registers import RegisterFile, SLOT_RAM_FIELDS
-from rast.model.fixedpoint import ReplayContract, REGISTER_STAGING, take_interval
-from rast.model.powerup import ChannelInit
-from rast.model.regmap import register_map
+from rast.model.contract.fixedpoint import ReplayContract, REGISTER_STAGING, take_interval
+from rast.model.contract.powerup import ChannelInit
+from rast.model.contract.regmap import register_map
 
 
 def _ram_view_dut(slots, inits):

@@ -10,11 +10,13 @@ from amaranth.hdl import Module, Signal, ResetInserter
 from amaranth.sim import Simulator
 
 from rast.hdl.replay_top import WindFarmReplay
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import pack_iq, unpack_iq, ReplayContract, take_interval, TAKE_SPACING, WRITE_STAGING
-from rast.model.regmap import register_map, stream_crc32, ID_VALUE, CTRL_ENABLE, CTRL_SWAP, CTRL_BANK, CTRL_REJECTED
-from rast.model.loadplan import manifest_to_register_writes, manifest_channel_inits
-from rast.model.powerup import ChannelInit
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import (pack_iq, unpack_iq, ReplayContract, take_interval, TAKE_SPACING,
+                                            WRITE_STAGING)
+from rast.model.contract.regmap import (register_map, stream_crc32, ID_VALUE, CTRL_ENABLE, CTRL_SWAP,
+                                        CTRL_BANK, CTRL_REJECTED)
+from rast.model.contract.loadplan import manifest_to_register_writes, manifest_channel_inits
+from rast.model.contract.powerup import ChannelInit
 
 from hdl_harness import run_replay, model_replay, assert_same, assert_reads
 

@@ -7,7 +7,7 @@ import pytest
 
 from rast import verilog as rv
 from rast.gateware import verilog as gv
-from rast.model.fixedpoint import ReplayContract, pack_iq
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq
 
 
 @pytest.mark.parametrize("args", [

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.regmap import stream_crc32
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq
+from rast.model.contract.regmap import stream_crc32
 from rast.sim.pty_board import Damage, PtyBoard
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from rast.load import RETRIES, LoadError, load_manifest, plan_writes, read_manifest_dir
-from rast.model.datapath import ONE, ReplayModel
-from rast.model.fixedpoint import ReplayContract, pack_iq
-from rast.model.hostproto import HostBridge
-from rast.model.regmap import CTRL_ENABLE, stream_crc32
+from rast.model.contract.datapath import ONE, ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract, pack_iq
+from rast.model.contract.hostproto import HostBridge
+from rast.model.contract.regmap import CTRL_ENABLE, stream_crc32
 from rast.sim.uart_chain import ModelBoard
 
 FS = 1_000_000

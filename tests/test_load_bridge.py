@@ -1,4 +1,4 @@
-"""The host protocol (rast.model.hostproto, rast load) against the UART bridge
+"""The host protocol (rast.model.contract.hostproto, rast load) against the UART bridge
 and replay block in the Amaranth simulator: the same Python code that drives
 a serial port drives the simulated UART line.
 
@@ -17,11 +17,11 @@ from rast.gateware.simuart import SimUART
 from rast.gateware.top import ReplaySystem
 from rast.errors import UserError
 from rast.load import read_contract, load_manifest, read_status, LoadError
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract, WRITE_STAGING, pack_iq
-from rast.model.hostproto import (HostBridge, BRIDGE_ID, ProtocolError, encode_write, CMD_BURST,
-                                  encode_read, encode_burst, group_writes, CMD_WRITE, ACK)
-from rast.model.regmap import ID_VALUE, register_map, stream_crc32
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract, WRITE_STAGING, pack_iq
+from rast.model.contract.hostproto import (HostBridge, BRIDGE_ID, ProtocolError, encode_write, CMD_BURST,
+                                           encode_read, encode_burst, group_writes, CMD_WRITE, ACK)
+from rast.model.contract.regmap import ID_VALUE, register_map, stream_crc32
 
 DIV = 4            # cycles per UART bit in simulation (the bridge's minimum)
 TIMEOUT = 400      # bridge frame timeout, cycles

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.config import BladeFlash, ConfigError, WeightTable, load_config, parse_config
+from rast.model.physics.config import BladeFlash, ConfigError, WeightTable
+from rast.model.physics.farm import load_config, parse_config
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

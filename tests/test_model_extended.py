@@ -1,4 +1,4 @@
-"""Range-extended turbines (rast.model.extended) against closed forms and the single-tap model."""
+"""Range-extended turbines (rast.model.physics.extended) against closed forms and the single-tap model."""
 
 import dataclasses
 import math
@@ -6,13 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from rast.model.config import SPEED_OF_LIGHT_M_S as C, ConfigError, parse_config
-from rast.model.extended import range_cell_weight
-from rast.model.radar import receive
-from rast.model.regmap import register_map
-from rast.model.loadplan import manifest_to_register_writes
-from rast.model.stream import build_farm_streams
-from rast.model.turbine import modulation, modulation_reference
+from rast.model.physics.config import SPEED_OF_LIGHT_M_S as C, ConfigError
+from rast.model.physics.farm import parse_config
+from rast.model.physics.turbine import range_cell_weight
+from rast.model.radar.receiver import receive
+from rast.model.contract.regmap import register_map
+from rast.model.contract.loadplan import manifest_to_register_writes
+from rast.model.physics.stream import build_farm_streams
+from rast.model.physics.turbine import modulation, modulation_reference
 
 FULL = dict(name="a", range=2.0, num_blades=3, rpm=15, rotor_angle=20, radius=[60.0, 30.0],
             rsc=[1.0, 0.5], phase_start=[0.0, 40.0], wire_enable=True, wire_radius_min=5.0,
@@ -185,6 +186,6 @@ def test_bad_keys_and_name_clash():
 def test_the_example_near_turbine():
     # 1.2 km at 20 MS/s: hub at 160.11 samples; 26 m at 30°: ±2·22.52/c·20e6 = ±3.004 samples
     from pathlib import Path
-    from rast.model.config import load_config
+    from rast.model.physics.farm import load_config
     farm = load_config(Path(__file__).resolve().parents[1] / "examples" / "range_extended_near.toml")
     assert [w.range_cell.delay_samples for w in farm.windmills] == list(range(157, 165))

@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from rast.model.config import SPEED_OF_LIGHT_M_S, parse_config
-from rast.model.radar import receive, spectrogram
-from rast.model.stream import build_farm_streams, delay_samples
-from rast.model.turbine import blade_angles, max_doppler_hz, modulation, wire_return
+from rast.model.physics.config import SPEED_OF_LIGHT_M_S
+from rast.model.physics.farm import parse_config
+from rast.model.radar.receiver import receive, spectrogram
+from rast.model.physics.stream import build_farm_streams, delay_samples
+from rast.model.physics.turbine import blade_angles, max_doppler_hz, modulation, wire_return
 
 C_BAND_MHZ = 5350.0
 WAVELENGTH = SPEED_OF_LIGHT_M_S / (C_BAND_MHZ * 1e6)
@@ -125,7 +126,7 @@ def test_weight_table_interpolates_periodically():
     farm = farm_of({"rpm": 12, "num_rcs": 2, "radius": [40.0, 10.0], "rsc": [1.0, 1.0],
                     "rsc_weighting": [[1, 3, 5, 7], [2, 2, 2, 2]]})
     w = farm.windmills[0]
-    from rast.model.turbine import point_weights
+    from rast.model.physics.turbine import point_weights
     beta = np.deg2rad(np.array([[0.0, 45.0, 315.0, 360.0]]))
     weights = point_weights(w.weighting, beta)
     np.testing.assert_allclose(weights[0, 0], [1, 2, 4, 1])   # 315° lies between 7 (270°) and 1 (360°)
@@ -179,7 +180,7 @@ def test_fast_modulation_agrees_with_the_plain_reference():
                     "wire_enable": True, "wire_radius_min": 2.0, "wire_radius_max": 55.0,
                     "wire_reflectivity": 0.03, "tower_rcs": 10.0, "tower_shadow_width": 30})
     w = farm.windmills[0]
-    from rast.model.turbine import modulation_reference
+    from rast.model.physics.turbine import modulation_reference
     t = rng.uniform(0, 10, 20_000)
     fast, plain = modulation(w, t, WAVELENGTH), modulation_reference(w, t, WAVELENGTH)
     budget = 1e-6 * (3 * np.sqrt(w.rcs_m2).sum() * 10 ** (9 / 20))

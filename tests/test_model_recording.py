@@ -1,4 +1,4 @@
-"""Recorded signatures (rast.model.recording, rast import) against the physics they were made from."""
+"""Recorded signatures (rast.model.physics.recording, rast import) against the physics they were made from."""
 
 import json
 
@@ -7,12 +7,14 @@ import pytest
 
 from rast.cli import main
 from rast.errors import read_manifest
-from rast.model.config import Radar, parse_config
-from rast.model.ramfiles import read_hex
-from rast.model.recording import (SYNTHETIC_TURBINE, estimate_period, make_loop, read_recording,
-                                  recording_streams, spectrogram_correlation, synthetic_recording)
-from rast.model.loadplan import manifest_to_register_writes
-from rast.model.turbine import modulation
+from rast.model.physics.config import Radar
+from rast.model.physics.farm import parse_config
+from rast.model.files.ramfiles import read_hex
+from rast.model.radar.receiver import spectrogram_correlation
+from rast.model.physics.recording import (SYNTHETIC_TURBINE, estimate_period, make_loop, read_recording,
+                                          recording_streams, synthetic_recording)
+from rast.model.contract.loadplan import manifest_to_register_writes
+from rast.model.physics.turbine import modulation
 
 
 def physics(t_s, **turbine):
@@ -99,7 +101,7 @@ def test_rast_import_writes_what_rast_stream_writes(tmp_path, capsys):
     assert w["delay_samples"] == round(2 * 2000 / 299_792_458 * 20e6)
     assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "rec.bin", "rec.hex", "rec.npy"]
     json.dumps(manifest)
-    from rast.model.fixedpoint import ReplayContract
+    from rast.model.contract.fixedpoint import ReplayContract
     writes = manifest_to_register_writes(manifest, ReplayContract(channels=1, pool_words=8192),
                                          stream_dir=out)
     assert len(writes) > w["length"]

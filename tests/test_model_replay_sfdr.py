@@ -2,8 +2,8 @@
 the held words' images are found, the FIR interpolator's are below -70 dB.
 
 The replayed samples are the bit-exact model's stream words
-(``rast.model.radar.receive`` with streams), one per pulse, for one second
-(ten CPIs); the SFDR is ``rast.model.sfdr`` over ±PRF/2.
+(``rast.model.radar.receiver.receive`` with streams), one per pulse, for one second
+(ten CPIs); the SFDR is ``rast.model.radar.sfdr`` over ±PRF/2.
 """
 
 import dataclasses
@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from rast.model.config import load_config
-from rast.model.radar import receive
-from rast.model.sfdr import farm_sfdr, worst
-from rast.model.stream import build_farm_streams
+from rast.model.physics.farm import load_config
+from rast.model.radar.receiver import receive
+from rast.model.radar.sfdr import farm_sfdr, worst
+from rast.model.physics.stream import build_farm_streams
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -1,4 +1,4 @@
-"""SFDR over the whole Doppler band (rast.model.sfdr) and its place in ``rast preview``.
+"""SFDR over the whole Doppler band (rast.model.radar.sfdr) and its place in ``rast preview``.
 
 Every tone sits on a DFT bin centre (PRF 20 kHz, CPI 0.1 s: 2000 pulses, 10 Hz
 bins), where the periodic Blackman-Harris window has no scalloping loss and
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.config import parse_config
-from rast.model.radar import range_bins, receive
-from rast.model.sfdr import SfdrResult, blackman_harris, farm_sfdr, sfdr, worst
+from rast.model.physics.farm import parse_config
+from rast.model.radar.receiver import range_bins, receive
+from rast.model.radar.sfdr import SfdrResult, blackman_harris, farm_sfdr, sfdr, worst
 
 PRF = 20_000.0
 CPI = 0.1
@@ -138,8 +138,8 @@ def test_farm_sfdr_excludes_each_bins_own_band_and_worst_picks_the_smallest():
 
 def test_draw_spectrogram_shows_the_whole_band_unless_zoomed():
     import matplotlib.pyplot as plt
-    from rast.model.plot import draw_spectrogram
-    from rast.model.radar import spectrogram
+    from rast.model.radar.plot import draw_spectrogram
+    from rast.model.radar.receiver import spectrogram
     spec = spectrogram(tone(500.0, n=2 * N), PRF, CPI)
     fig, (a, b) = plt.subplots(2)
     draw_spectrogram(a, spec, lines=[("x", 1000.0)])
@@ -160,7 +160,7 @@ def test_preview_reports_the_sfdr_of_each_bin_and_the_worst(tmp_path, capsys):
     out = capsys.readouterr().out
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # the same samples, measured here
-    from rast.model.stream import build_farm_streams
+    from rast.model.physics.stream import build_farm_streams
     farm = parse_config({"sample_rate": 20, "radar_frequency": 5350, "windmill": [
         {"name": "a", "range": 2.0, "num_blades": 1, "rpm": 15, "radius": [26.0], "rsc": [1.0]},
         {"name": "b", "range": 2.6, "num_blades": 1, "rpm": 20, "radius": [20.0], "rsc": [1.0]}]})

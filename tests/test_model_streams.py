@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model import fixedpoint as fx
-from rast.model.config import parse_config
-from rast.model.ramfiles import read_bin, read_hex, write_farm_files
-from rast.model.stream import build_farm_streams, plan_stream, quantise, stream_times
-from rast.model.turbine import modulation
+from rast.model.contract import fixedpoint as fx
+from rast.model.physics.farm import parse_config
+from rast.model.files.ramfiles import read_bin, read_hex, write_farm_files
+from rast.model.physics.stream import build_farm_streams, plan_stream, quantise, stream_times
+from rast.model.physics.turbine import modulation
 
 
 def farm(rate=None, **top):
@@ -63,8 +63,8 @@ def test_replayed_index_sequence(rate, mhz):
     word whose interval [k, k+1)·T_sim/N holds the sample's time, give or take
     the exact drift of the rounded increment. (The seed's mode at a 1 MHz RTS
     keeps the stream at 1.3 M words.)"""
-    from rast.model.radar import _replayed
-    from rast.model.stream import FarmStreams, WindmillStream
+    from rast.model.radar.receiver import _replayed
+    from rast.model.physics.stream import FarmStreams, WindmillStream
     f = farm(rate, sample_rate=mhz, interpolation="hold")
     w = f.windmills[0]
     plan = plan_stream(w, f)
@@ -192,7 +192,7 @@ def test_cli_stream_and_preview_end_to_end(tmp_path, capsys):
 def test_replayed_stream_words_show_the_physics_doppler():
     # The RTS's view (held, quantised words stepped by phase_increment) must put
     # each windmill's peak Doppler where the physics puts it.
-    from rast.model.radar import receive, spectrogram
+    from rast.model.radar.receiver import receive, spectrogram
     f = parse_config({"sample_rate": 20, "radar_frequency": 5350, "windmill": [
         {"name": "a", "range": 2.0, "num_blades": 1, "rpm": 15, "radius": [26.0], "rsc": [1.0],
          "start_angle": -4.5}]})

@@ -10,9 +10,9 @@ from amaranth.sim import Simulator
 
 from rast.hdl.pool_check import PoolReadCheck
 from rast.load import LoadError, load_manifest, verify_pool
-from rast.model.datapath import ReplayModel
-from rast.model.fixedpoint import ReplayContract
-from rast.model.hostproto import HostBridge
+from rast.model.contract.datapath import ReplayModel
+from rast.model.contract.fixedpoint import ReplayContract
+from rast.model.contract.hostproto import HostBridge
 from rast.cli import main
 from rast.errors import UserError
 from rast.sim.uart_chain import ModelBoard

@@ -1,10 +1,10 @@
-"""The radar pulse generator (rast.model.pulses): timing, chirp slope, noise, quantisation."""
+"""The radar pulse generator (rast.model.radar.pulses): timing, chirp slope, noise, quantisation."""
 
 import numpy as np
 import pytest
 
-from rast.model import fixedpoint as fx
-from rast.model.pulses import TABLE_4_1, PulseConfig, generate, pulse_waveform, quantise_iq
+from rast.model.contract import fixedpoint as fx
+from rast.model.radar.pulses import TABLE_4_1, PulseConfig, generate, pulse_waveform, quantise_iq
 
 
 def test_rect_pulse_timing_and_idle():

@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from rast.cli import main
-from rast.model.config import ConfigError, parse_config
-from rast.model.fixedpoint import STREAM, pack_iq
-from rast.model.ramfiles import FORMATS, write_farm_files
-from rast.model.stream import build_farm_streams
+from rast.model.physics.config import ConfigError
+from rast.model.physics.farm import parse_config
+from rast.model.contract.fixedpoint import STREAM, pack_iq
+from rast.model.files.ramfiles import FORMATS, write_farm_files
+from rast.model.physics.stream import build_farm_streams
 
 CONFIG = {"sample_rate": 20, "radar_frequency": 5350,
           "windmill": [{"name": "w", "range": 2.0, "num_blades": 3, "rpm": 15,
@@ -119,7 +120,7 @@ def previous_hex(words):
 
 
 def test_hex_writer_gives_the_previous_writers_bytes_on_every_block_boundary(tmp_path, monkeypatch):
-    from rast.model import ramfiles
+    from rast.model.files import ramfiles
     monkeypatch.setattr(ramfiles, "_HEX_BLOCK", 1000)
     rng = np.random.default_rng(11)
     edges = [0, 1, 9, 10, 15, 16, 0xFFFF, 0x10000, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFE, 0xFFFFFFFF]
@@ -153,8 +154,10 @@ def stream_farm(interpolation, rates):
 
 def small_blocks(monkeypatch):
     """Every piece of the computation and of the writing small, with ragged ends."""
-    from rast.model import ramfiles, stream, synthesis
-    from rast.model.turbine import CHUNK_SAMPLES
+    from rast.model.files import ramfiles
+    from rast.model.physics import stream
+    from rast.model.physics import synthesis
+    from rast.model.physics.turbine import CHUNK_SAMPLES
     monkeypatch.setattr(synthesis, "SAMPLES_PER_BLOCK", 5003)
     monkeypatch.setattr(synthesis, "SAMPLES_PER_PIECE", 2 * CHUNK_SAMPLES)
     monkeypatch.setattr(stream, "_QUANTISE_BLOCK", 7001)
@@ -170,7 +173,7 @@ def small_blocks(monkeypatch):
 ])
 def test_files_written_while_computing_are_the_plain_writers_bytes(tmp_path, monkeypatch, interpolation, rates):
     import struct
-    from rast.model.ramfiles import make_farm_files
+    from rast.model.files.ramfiles import make_farm_files
     small_blocks(monkeypatch)
     farm = stream_farm(interpolation, rates)
     fs, written = make_farm_files(farm, tmp_path / "made", formats=FORMATS)
@@ -196,7 +199,7 @@ def test_files_written_while_computing_are_the_plain_writers_bytes(tmp_path, mon
 
 
 def test_make_farm_files_reports_progress_up_to_every_windmills_length(tmp_path):
-    from rast.model.ramfiles import make_farm_files
+    from rast.model.files.ramfiles import make_farm_files
     farm = stream_farm("hold", [2e6, None])
     seen = {}
 
@@ -209,7 +212,7 @@ def test_make_farm_files_reports_progress_up_to_every_windmills_length(tmp_path)
 
 
 def test_make_farm_files_leaves_nothing_when_it_fails(tmp_path):
-    from rast.model.ramfiles import make_farm_files
+    from rast.model.files.ramfiles import make_farm_files
     farm = stream_farm("hold", [2e6, None])
 
     def refuse(farm_streams):
@@ -232,7 +235,7 @@ def test_make_farm_files_leaves_nothing_when_it_fails(tmp_path):
 
 def test_a_file_written_in_pieces_past_the_page_cache_has_every_byte(tmp_path, monkeypatch):
     import os
-    from rast.model import ramfiles
+    from rast.model.files import ramfiles
     monkeypatch.setattr(ramfiles, "_DIRECT_BUFFER", 2 * ramfiles._ALIGN)
     try:                                   # can this file system take O_DIRECT at all?
         os.close(os.open(tmp_path / "probe", os.O_WRONLY | os.O_CREAT | os.O_DIRECT))
@@ -256,7 +259,7 @@ def test_a_file_written_in_pieces_past_the_page_cache_has_every_byte(tmp_path, m
 def test_a_file_system_that_refuses_o_direct_at_the_first_write_gets_plain_writes(tmp_path, monkeypatch):
     import errno
     import os
-    from rast.model import ramfiles
+    from rast.model.files import ramfiles
     monkeypatch.setattr(ramfiles, "_DIRECT_BUFFER", ramfiles._ALIGN)
     out = ramfiles._OutFile(tmp_path / "f.bin", size=1 << 40)
     if not out.direct:

@@ -5,11 +5,12 @@ The pin-to-pin measurement is ``tests/test_cosim_board_io.py``."""
 
 import pytest
 
-from rast.model.config import ConfigError, parse_config
-from rast.model.fixedpoint import ReplayContract, path_latency
-from rast.model.regmap import register_map
-from rast.model.loadplan import manifest_channel_inits, manifest_to_register_writes
-from rast.model.stream import build_farm_streams
+from rast.model.physics.config import ConfigError
+from rast.model.physics.farm import parse_config
+from rast.model.contract.fixedpoint import ReplayContract, path_latency
+from rast.model.contract.regmap import register_map
+from rast.model.contract.loadplan import manifest_channel_inits, manifest_to_register_writes
+from rast.model.physics.stream import build_farm_streams
 
 
 def farm(**top):

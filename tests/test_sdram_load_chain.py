@@ -14,7 +14,7 @@ import pytest
 from rast.cli import main
 from rast.gateware.build import BuildConfig, build
 from rast.load import read_manifest_dir
-from rast.model.fixedpoint import ReplayContract
+from rast.model.contract.fixedpoint import ReplayContract
 
 ROOT = Path(__file__).resolve().parents[1]
 

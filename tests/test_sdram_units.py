@@ -262,8 +262,8 @@ def test_hardware_core_elaborates(core):
 
 # ------------------------------------------------------- the engine's contract
 
-from rast.model import fixedpoint as fx                        # noqa: E402
-from rast.model.fixedpoint import ReplayContract              # noqa: E402
+from rast.model.contract import fixedpoint as fx                        # noqa: E402
+from rast.model.contract.fixedpoint import ReplayContract              # noqa: E402
 
 
 @pytest.mark.parametrize("kwargs, msg", [
@@ -321,7 +321,7 @@ def test_sdram_bounds_follow_the_fabric_clock():
 
 def test_an_sdram_engine_has_no_power_up_streams():
     from rast.hdl.replay_top import WindFarmReplay
-    from rast.model.powerup import ChannelInit
+    from rast.model.contract.powerup import ChannelInit
     with pytest.raises(ValueError, match="an SDRAM pool powers up empty"):
         WindFarmReplay(2, pool="sdram", pool_words=4096, init=[ChannelInit(words=(1, 2, 3))])
     e = WindFarmReplay(2, pool="sdram", pool_words=4096)
@@ -335,7 +335,7 @@ def test_a_reload_goes_beside_the_playing_streams_as_fast_as_the_pool_takes_it()
     the reload's sample on, spaced so that the pool keeps up, every word of
     every stream written again and every channel switched at once (disable,
     SWAP, enable)."""
-    from rast.model.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
+    from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
     from rast.sim.e2e import RELOAD_GROUP, prepare
     config = Path(__file__).resolve().parent.parent / "examples" / "two_windmills.toml"
     e = prepare(config, 0.05, slots=10, pool="sdram", reload_s=0.02)

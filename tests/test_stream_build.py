@@ -9,8 +9,8 @@ import pytest
 
 from rast.cli import main
 from rast.gateware.build import BuildConfig
-from rast.model.config import load_config
-from rast.model.fixedpoint import ReplayContract
+from rast.model.physics.farm import load_config
+from rast.model.contract.fixedpoint import ReplayContract
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,7 +86,10 @@ def test_stream_takes_the_builds_interpolation(tmp_path):
 
 @pytest.mark.parametrize("content, message", [
     ("{}", "has no 'build' section"),
-    ('{"build": {"channels": 0}}', "Channel count must be a positive integer, not 0"),
+    ('{"build": {"channels": 0}}', "its 'build' section lacks slots, pool_words"),
+    ('{"build": {"channels": 0, "slots": 8, "pool_words": 65536, "max_delay": 8190, "max_tap": 2046, '
+     '"interpolation": "fir", "cmult_form": "4mult", "sample_rate_hz": 20000000, "pool": "bram"}}',
+     "Channel count must be a positive integer, not 0"),
     ("not json", "is not valid JSON"),
 ])
 def test_bad_build_reports_are_refused(tmp_path, capsys, content, message):

@@ -1,4 +1,4 @@
-"""Fast stream synthesis (rast.model.synthesis): its error against the float64
+"""Fast stream synthesis (rast.model.physics.synthesis): its error against the float64
 per-scatterer reference, its fallback, and the writers it made faster.
 
 The error measure is the streams' promise: RMS of (period − reference) over
@@ -15,12 +15,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rast.model import fixedpoint as fx
-from rast.model.config import load_config, parse_config
-from rast.model.ramfiles import read_hex, write_hex
-from rast.model.stream import _fir_peak, build_farm_streams, plan_stream, quantise, quantise_words
-from rast.model.synthesis import CHECK_LIMIT_DBC, TAPS, ComputePool, lagrange_weights, synthesise_period
-from rast.model.turbine import max_doppler_hz, modulation, modulation_reference
+from rast.model.contract import fixedpoint as fx
+from rast.model.physics.farm import load_config, parse_config
+from rast.model.files.ramfiles import read_hex, write_hex
+from rast.model.physics.stream import _fir_peak, build_farm_streams, plan_stream, quantise, quantise_words
+from rast.model.physics.synthesis import (CHECK_LIMIT_DBC, TAPS, ComputePool, lagrange_weights,
+                                          synthesise_period)
+from rast.model.physics.turbine import max_doppler_hz, modulation, modulation_reference
 
 EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.toml"))
 LIMIT_DBC = -100.0
@@ -35,7 +36,7 @@ def error_dbc(period, windmill, length, wavelength_m, samples=None, seed=0):
     if windmill.range_cell is None:
         reference = modulation_reference(windmill, t, wavelength_m)
     else:       # one delay tap of a range-extended turbine: its share, evaluated directly
-        from rast.model.extended import tap_modulation
+        from rast.model.physics.turbine import tap_modulation
         reference = tap_modulation(windmill, t, wavelength_m)
     with np.errstate(divide="ignore"):           # a wire alone is exact: −inf dBc
         return 10 * np.log10(np.mean(np.abs(period[n] - reference) ** 2) / np.mean(np.abs(reference) ** 2))
@@ -181,7 +182,7 @@ def test_the_pruned_fir_peak_matches_the_full_fir_where_it_matters():
 
 def plain_quantise(period, interpolation):
     """The quantiser as first written: whole arrays, scale to the peak, round half to
-    even, and for the FIR rescale until its overshoot fits (rast.model.stream._fir_peak)."""
+    even, and for the FIR rescale until its overshoot fits (rast.model.physics.stream._fir_peak)."""
     peak = max(np.abs(period.real).max(), np.abs(period.imag).max())
     scale = fx.STREAM.max / peak
     while True:
@@ -200,7 +201,7 @@ def plain_quantise(period, interpolation):
 
 @pytest.mark.parametrize("interpolation", ["hold", "fir"])
 def test_quantised_words_in_blocks_on_every_core_are_the_plain_quantisers(interpolation, monkeypatch):
-    from rast.model import stream
+    from rast.model.physics import stream
     monkeypatch.setattr(stream, "_QUANTISE_BLOCK", 3001)
     farm = load_config(EXAMPLES[-1])
     for w in farm.windmills:
@@ -222,7 +223,7 @@ def test_quantised_words_in_blocks_on_every_core_are_the_plain_quantisers(interp
 def test_the_period_is_the_same_on_any_number_of_cores_and_in_any_block_size(monkeypatch):
     # Grid and direct paths: pieces on 1, 2 or 3 threads, and small blocks, give the
     # same values bit for bit (BLAS is held to one thread, blocks are whole 64 rows).
-    from rast.model import synthesis
+    from rast.model.physics import synthesis
     farm = stress_windmill(5, {"angle": [0, 180], "width": 4, "gain_db": 10})
     w = farm.windmills[0]
     lam = farm.radar.wavelength_m

@@ -33,9 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from rast.hdl.channel_pipeline import ChannelPipeline, SlotInit   # noqa: E402
 from rast.hdl.delay_line import DelayLine                         # noqa: E402
 from rast.hdl.registers import channel_regs_layout, slot_values_layout  # noqa: E402
-from rast.model.fixedpoint import (ReplayContract, CACHE_FILL_WORDS, FIR_TAPS, FIR_PHASE_BITS,  # noqa: E402
-                                   PHASE_FRAC_BITS)
-from rast.model.regmap import register_map                        # noqa: E402
+from rast.model.contract.fixedpoint import (ReplayContract, CACHE_FILL_WORDS, FIR_TAPS,  # noqa: E402
+                                           FIR_PHASE_BITS, PHASE_FRAC_BITS)
+from rast.model.contract.regmap import register_map                        # noqa: E402
 
 
 class StreamAddressCheck(Elaboratable):

@@ -21,7 +21,7 @@ and Q, as a fraction of full scale) comes from ``numpy.random.default_rng(seed)`
 and is added to every sample, including the idle ones, unless
 ``noise_in_pulse_only``.
 
-Quantisation to the input format (``rast.model.fixedpoint.INPUT``, full scale
+Quantisation to the input format (``rast.model.contract.fixedpoint.INPUT``, full scale
 1.0 = ``2**(width-1)``): ``round`` half away from zero (``numpy.rint`` is
 half-even; the choice is irrelevant for the model, which only sees the
 integers), then saturation to ``[INPUT.min, INPUT.max]``.
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import fixedpoint as fx
+from rast.model.contract import fixedpoint as fx
 
 __all__ = ["PulseConfig", "PulseTrain", "generate", "pulse_waveform", "quantise_iq",
            "TABLE_4_1"]
@@ -179,7 +179,7 @@ class PulseTrain:
         return self.i.reshape(-1), self.q.reshape(-1)
 
     def words(self) -> np.ndarray:
-        """Packed input words (I low), flattened, as ``rast.model.fixedpoint.pack_iq``."""
+        """Packed input words (I low), flattened, as ``rast.model.contract.fixedpoint.pack_iq``."""
         i, q = self.flat()
         return fx.pack_iq(i, q, fx.INPUT.width)
 

@@ -9,7 +9,7 @@ same clock cycle as an input transfer counts as after that transfer); a read
 there returns the state after step ``n-1``.
 
 Equations (N channels, l = 0..N-1, every value as applied at step n; the
-fixed-point contract ``rast.model.fixedpoint``, "The time-multiplexed engine"):
+fixed-point contract ``rast.model.contract.fixedpoint``, "The time-multiplexed engine"):
 
 * common delay line and window: ``c[n] = x[n - COMMON_LAG - d_c[n]]``,
   ``t_l[n] = c[n - WINDOW_LAG - d_l[n]]`` (``d_c`` the applied COMMON_DELAY,
@@ -25,12 +25,13 @@ Hence an echo of channel l appears ``L + d_c + d_l`` samples after the input,
 
 import numpy as np
 
-from .fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
-                         INTERP_FRAC_BITS, PHASE_FRAC_BITS, COMMON_LAG, WINDOW_LAG,
-                         STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
-                         FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate, pack_iq, unpack_iq)
-from .regmap import register_map, stream_crc32, APPLIED_LSB
-from .powerup import ChannelInit, pool_contents
+from rast.model.contract.fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT, GAIN_SHIFT, OUTPUT_WIDTH,
+                                            INTERP_FRAC_BITS, PHASE_FRAC_BITS, COMMON_LAG, WINDOW_LAG,
+                                            STREAM_WIDTH, FIR_PHASE_BITS, FIR_PHASES, FIR_TAPS, FIR_LEAD,
+                                            FIR_COEF_FRAC, fir_coefficients, round_half_up, saturate,
+                                            pack_iq, unpack_iq)
+from rast.model.contract.regmap import register_map, stream_crc32, APPLIED_LSB
+from rast.model.contract.powerup import ChannelInit, pool_contents
 
 __all__ = ["cmult", "gain_scale", "interpolate_words", "fir_table", "stream_words",
            "phase_sequence", "delay_line", "channel_sum", "ReplayModel"]

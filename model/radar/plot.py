@@ -12,9 +12,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .radar import RangeBin, Spectrogram  # noqa: E402
-from .sfdr import SfdrResult  # noqa: E402
-from .turbine import max_doppler_hz  # noqa: E402
+from rast.model.radar.receiver import RangeBin, Spectrogram  # noqa: E402
+from rast.model.radar.sfdr import SfdrResult  # noqa: E402
+from rast.model.physics.turbine import max_doppler_hz  # noqa: E402
 
 __all__ = ["draw_spectrogram", "save_preview", "save_range_doppler", "save_gate_grid", "grid_columns",
            "gate_title", "MAX_PANELS", "STACKED_PANELS"]

@@ -14,12 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import SPEED_OF_LIGHT_M_S, Farm
-from .stream import FarmStreams
-from .turbine import modulation
-from . import fixedpoint as fx
+from rast.model.physics.config import SPEED_OF_LIGHT_M_S, Farm
+from rast.model.physics.stream import FarmStreams
+from rast.model.physics.turbine import modulation
+from rast.model.contract import fixedpoint as fx
 
-__all__ = ["RangeBin", "range_bins", "pulse_times", "receive", "spectrogram", "Spectrogram", "MAX_PREVIEW_SAMPLES"]
+__all__ = ["RangeBin", "range_bins", "pulse_times", "receive", "spectrogram", "Spectrogram", "MAX_PREVIEW_SAMPLES",
+           "spectrogram_correlation"]
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ def _replayed(farm_streams: FarmStreams, index: int, t_s: np.ndarray) -> np.ndar
     """What the RTS plays for windmill ``index`` at times t: the stream word
     at the multiplier, under the farm's interpolation, integer for integer as
     the bit-exact model (``stream_words``), times the gain."""
-    from .datapath import stream_words
+    from rast.model.contract.datapath import stream_words
     s = next(s for s in farm_streams.streams if s.windmill is farm_streams.farm.windmills[index])
     n = np.round(t_s * farm_streams.farm.sample_rate_hz).astype(np.int64)
     # n * increment passes 2**63 after 2**31 samples at one word per sample:
@@ -126,3 +127,27 @@ def spectrogram(samples: np.ndarray, prf_hz: float, cpi_s: float, *,
     doppler = np.fft.fftshift(np.fft.fftfreq(n, 1.0 / prf_hz))
     times = (starts + n / 2) / prf_hz
     return Spectrogram(times, doppler, power_db)
+
+
+def spectrogram_correlation(samples: np.ndarray, loop: "Loop", farm_streams: FarmStreams, *,
+                            dynamic_range_db: float = 40.0) -> float:
+    """How well a replayed recording matches it (``rast import``): the
+    Pearson correlation of two spectrograms in dB, each clipped at ``dynamic_range_db``
+    below its peak: the model radar's of the replayed stream words (as the RTS plays them)
+    and the recording's own, over the whole periods the loop was cut from, CPI for CPI."""
+    from rast.model.physics.recording import RecordingError
+    farm = farm_streams.farm
+    prf = farm.radar.prf_hz
+    pulses = int(loop.periods * loop.period_s * prf)
+    cpi_s = farm.radar.cpi_ms * 1e-3
+    if pulses < round(cpi_s * prf):
+        raise RecordingError(f"the recording's {pulses} whole-period pulses are fewer than one CPI "
+                             f"of {farm.radar.cpi_ms:g} ms")
+    _, _, replayed = receive(farm, pulses / prf, farm_streams)
+    recorded = samples[loop.start_sample:loop.start_sample + replayed.shape[1]]
+
+    def clipped(x):
+        p = spectrogram(x, prf, cpi_s).power_db
+        return np.maximum(p, p.max() - dynamic_range_db).ravel()
+    a, b = clipped(replayed[0]), clipped(recorded)
+    return float(np.corrcoef(a, b)[0, 1])

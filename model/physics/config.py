@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["ConfigError", "BladeFlash", "WeightTable", "Wire", "Tower", "Radar", "RangeCell",
-           "Windmill", "Farm", "load_config", "parse_config", "SPEED_OF_LIGHT_M_S"]
+           "Windmill", "Farm", "read_config_file", "validate_config", "SPEED_OF_LIGHT_M_S", "LIMITS"]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
 
@@ -99,7 +99,7 @@ class Radar:
 
 @dataclass(frozen=True)
 class RangeCell:
-    """Marks a windmill as one delay tap of a range-extended turbine (``rast.model.extended``).
+    """Marks a windmill as one delay tap of a range-extended turbine (``rast.model.physics.extended``).
 
     The tap's stream is the turbine's echo weighted, scatterer by scatterer,
     by the range-cell weight of the tap at ``delay_samples`` (RTS samples of
@@ -457,8 +457,10 @@ def _parse_windmill(table: dict, where: str, problems: list[str], default_rate) 
                     range_extended=range_extended)
 
 
-def parse_config(data: dict, source: str | None = None) -> Farm:
-    """Validate a parsed TOML document and build the :class:`Farm` it describes."""
+def validate_config(data: dict, source: str | None = None) -> Farm:
+    """Validate a parsed TOML document and build the :class:`Farm` it
+    describes, as written (its range-extended turbines not yet split:
+    :func:`rast.model.physics.farm.parse_config` does both)."""
     problems: list[str] = []
     farm_file = "windmill" in data
     top = _Reader(data, "", problems)
@@ -534,21 +536,16 @@ def parse_config(data: dict, source: str | None = None) -> Farm:
                                 f"interpolation = \"hold\" (exact at that rate)")
     if problems:
         raise ConfigError(problems, source)
-    farm = Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
+    return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
                 interpolation, adc_latency, dac_latency, range_extend_above)
-    from .extended import extend_farm     # the range-extended turbines become their delay taps
-    try:
-        return extend_farm(farm)
-    except ConfigError as error:
-        raise ConfigError(error.problems, source) from None
 
 
 #: Largest config file read (bytes): a farm of thousands of turbines is a few MB.
 MAX_CONFIG_BYTES = 64 << 20
 
 
-def load_config(path) -> Farm:
-    """Read and validate a TOML config file: UTF-8 text (a byte-order mark is
+def read_config_file(path) -> dict:
+    """The TOML document of a config file: UTF-8 text (a byte-order mark is
     skipped), no NUL bytes, at most MAX_CONFIG_BYTES; anything else, and TOML
     nested too deep to parse, is a :class:`ConfigError` naming the file."""
     path = Path(path)
@@ -574,4 +571,4 @@ def load_config(path) -> Farm:
         raise ConfigError([f"is not valid TOML: {error}"], str(path)) from None
     except RecursionError:
         raise ConfigError(["nests arrays or tables too deeply to be a config"], str(path)) from None
-    return parse_config(data, str(path))
+    return data

@@ -19,10 +19,10 @@ complex sample per pulse, at the radar's PRF. Replaying it takes
    one period sampled over exactly one period, so it is seamless for a
    periodic echo; T need not be a multiple of the PRI;
 3. the stream: the loop is band-limited once more as a periodic signal (its
-   DFT zeroed outside the band), quantised by ``rast.model.stream.quantise``
+   DFT zeroed outside the band), quantised by ``rast.model.physics.stream.quantise``
    and written with the manifest as by ``rast stream``.
 
-:func:`spectrogram_correlation` checks the result: the model radar's
+:func:`rast.model.radar.receiver.spectrogram_correlation` checks the result: the model radar's
 spectrogram of the replayed stream words against the recording's own.
 """
 
@@ -35,13 +35,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import fixedpoint as fx
-from .config import Farm, Radar, Windmill
-from .stream import FarmStreams, StreamPlan, WindmillStream, delay_samples, quantise
+from rast.model.contract import fixedpoint as fx
+from rast.model.physics.config import Farm, Radar, Windmill
+from rast.model.physics.stream import FarmStreams, StreamPlan, WindmillStream, delay_samples, quantise
 
 __all__ = ["RecordingError", "Recording", "read_recording", "PeriodEstimate", "estimate_period",
            "band_limited_read", "kernel_half_width", "make_loop", "Loop", "occupied_doppler_hz",
-           "stream_increment", "recording_streams", "spectrogram_correlation", "synthetic_recording",
+           "stream_increment", "recording_streams", "synthetic_recording",
            "SYNTHETIC_TURBINE", "KERNEL_ZEROS", "KAISER_BETA", "MIN_CORRELATION",
            "MIN_PATTERN_CORRELATION", "UPSAMPLE", "FRAME_PULSES", "HOP_PULSES"]
 
@@ -386,29 +386,6 @@ def recording_streams(loop: Loop, *, name: str, range_km: float, num_blades: int
     return FarmStreams(farm, [stream], taps)
 
 
-def spectrogram_correlation(samples: np.ndarray, loop: Loop, farm_streams: FarmStreams, *,
-                            dynamic_range_db: float = 40.0) -> float:
-    """Pearson correlation of two spectrograms in dB, each clipped at ``dynamic_range_db``
-    below its peak: the model radar's of the replayed stream words (as the RTS plays them)
-    and the recording's own, over the whole periods the loop was cut from, CPI for CPI."""
-    from .radar import receive, spectrogram
-    farm = farm_streams.farm
-    prf = farm.radar.prf_hz
-    pulses = int(loop.periods * loop.period_s * prf)
-    cpi_s = farm.radar.cpi_ms * 1e-3
-    if pulses < round(cpi_s * prf):
-        raise RecordingError(f"the recording's {pulses} whole-period pulses are fewer than one CPI "
-                             f"of {farm.radar.cpi_ms:g} ms")
-    _, _, replayed = receive(farm, pulses / prf, farm_streams)
-    recorded = samples[loop.start_sample:loop.start_sample + replayed.shape[1]]
-
-    def clipped(x):
-        p = spectrogram(x, prf, cpi_s).power_db
-        return np.maximum(p, p.max() - dynamic_range_db).ravel()
-    a, b = clipped(replayed[0]), clipped(recorded)
-    return float(np.corrcoef(a, b)[0, 1])
-
-
 #: The turbine of the synthetic recordings (examples/make_recording.py, the tests).
 SYNTHETIC_TURBINE = dict(name="recorded", range=2.0, num_blades=3, rpm=15, radius=[26.0, 12.0],
                          rsc=[1.0, 0.5], tower_rcs=0.5,
@@ -420,8 +397,8 @@ def synthetic_recording(prf_hz=5000.0, seconds=8.0, snr_db=20.0, seed=0, rpm_dri
     :data:`SYNTHETIC_TURBINE` (``turbine`` overrides its keys) at ``prf_hz``, with
     white noise ``snr_db`` below its mean power (None: none). ``rpm_drift``: the
     rpm changes linearly by this fraction over the recording."""
-    from .config import parse_config
-    from .turbine import modulation
+    from rast.model.physics.farm import parse_config
+    from rast.model.physics.turbine import modulation
     farm = parse_config({"sample_rate": 20, "radar_frequency": 5350,
                          "windmill": [dict(SYNTHETIC_TURBINE, **turbine)]})
     t = np.arange(int(round(seconds * prf_hz))) / prf_hz

@@ -14,12 +14,15 @@ The rotation angle is ``β_b(t) = 2π·rpm·t/60 + start_angle + b·2π/num_blad
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .config import BladeFlash, WeightTable, Windmill
+from rast.model.physics.config import SPEED_OF_LIGHT_M_S, BladeFlash, WeightTable, Windmill
 
 __all__ = ["blade_angles", "modulation", "modulation_reference", "max_doppler_hz", "point_weights",
-           "shadow_factor", "wire_return", "CHUNK_SAMPLES", "evaluate_in_chunks"]
+           "shadow_factor", "wire_return", "CHUNK_SAMPLES", "evaluate_in_chunks", "range_cell_weight",
+           "hub_delay_samples", "tap_modulation", "WIRE_SEGMENT_CELLS"]
 
 #: Samples evaluated at a time: bounds the (scatterers × blades × samples) work array.
 CHUNK_SAMPLES = 1 << 12
@@ -154,9 +157,8 @@ def _modulation_chunk(windmill: Windmill, t_s: np.ndarray, wavelength_m: float) 
 def modulation(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
     """m(t) of eq. 2.15: the sum over blades and scatterers (plus wire and tower), complex128.
     A delay tap of a range-extended turbine (``range_cell`` set) gets its share of it
-    (:func:`rast.model.extended.tap_modulation`)."""
+    (:func:`tap_modulation`)."""
     if windmill.range_cell is not None:
-        from .extended import tap_modulation
         return tap_modulation(windmill, t_s, wavelength_m)
     return evaluate_in_chunks(_modulation_chunk, windmill, t_s, wavelength_m)
 
@@ -211,3 +213,81 @@ def modulation_reference(windmill: Windmill, t_s, wavelength_m: float) -> np.nda
     if windmill.tower is not None and windmill.tower.rcs_m2 > 0:
         total += np.sqrt(windmill.tower.rcs_m2) * np.exp(1j * np.deg2rad(windmill.tower.phase_deg))
     return total
+
+
+# ---------------------------------------------------------------------------
+# A delay tap of a range-extended turbine (rast.model.physics.extended): the
+# turbine's echo, each scatterer weighted by the share of its delay in the tap.
+
+#: A wire blade is cut into segments no longer than this fraction of one RTS
+#: sample of range; each segment keeps the exact closed form of eq. 2.20 and
+#: takes the range-cell weight of its mid-point.
+WIRE_SEGMENT_CELLS = 1 / 8
+
+
+def range_cell_weight(delay_samples: np.ndarray, tap: int) -> np.ndarray:
+    """w_k(D) = max(0, 1 − |D − k|): the share of tap k of an echo at delay D (RTS samples)."""
+    return np.maximum(0.0, 1.0 - np.abs(np.asarray(delay_samples, dtype=float) - tap))
+
+
+def hub_delay_samples(range_km: float, sample_rate_hz: float) -> float:
+    """Round-trip delay of a range in RTS samples, not rounded: 2·R·f_s/c."""
+    return 2 * range_km * 1e3 / SPEED_OF_LIGHT_M_S * sample_rate_hz
+
+
+def _turns(x):
+    """exp(2πi·x) with the whole turns removed first (long blades: thousands of turns)."""
+    return np.exp(2j * np.pi * (x - np.rint(x)))
+
+
+def _tap_chunk(windmill: Windmill, t_s: np.ndarray, wavelength_m: float) -> np.ndarray:
+    cell = windmill.range_cell
+    per_m = 2 * cell.sample_rate_hz / SPEED_OF_LIGHT_M_S        # delay samples per metre of ΔR
+    hub = hub_delay_samples(cell.hub_range_km, cell.sample_rate_hz)
+    beta = blade_angles(windmill, t_s)                          # (B, n)
+    sin_beta = np.sin(beta)
+    shadow = shadow_factor(windmill, beta)
+    blades = np.zeros(beta.shape, dtype=complex)
+    if windmill.num_rcs:
+        # eq. 2.17-2.19 per scatterer: ΔR = −r·cos(ra)·sin β, phase −4π·ΔR/λ.
+        projected = windmill.radius_m * math.cos(math.radians(windmill.rotor_angle_deg))
+        delta_r = -projected[:, None, None] * sin_beta
+        amplitude = np.sqrt(windmill.rcs_m2) * np.exp(1j * np.deg2rad(windmill.phase_start_deg))
+        echo = amplitude[:, None, None] * _turns(-2 * delta_r / wavelength_m)         # (K, B, n)
+        weights = point_weights(windmill.weighting, beta)
+        if weights is not None:
+            echo = echo * weights
+        blades += (echo * range_cell_weight(hub + per_m * delta_r, cell.delay_samples)).sum(axis=0)
+    if windmill.wire is not None:
+        # eq. 2.20 over each segment [a, b]: α·(b−a)·e^{i(φ0 + q·mid)}·sinc(q·(b−a)/2), exact;
+        # the segments' sum is the whole wire's closed form.
+        wire = windmill.wire
+        cos_theta = math.cos(math.radians(windmill.rotor_angle_deg + wire.view_angle_deg))
+        length = wire.radius_max_m - wire.radius_min_m
+        cell_m = SPEED_OF_LIGHT_M_S / (2 * cell.sample_rate_hz)
+        segments = max(1, math.ceil(length * abs(cos_theta) / (WIRE_SEGMENT_CELLS * cell_m)))
+        seg = length / segments
+        mids = wire.radius_min_m + seg * (np.arange(segments) + 0.5)
+        q = 4 * np.pi / wavelength_m * cos_theta * sin_beta                             # (B, n)
+        returns = (wire.reflectivity * seg * np.sinc(q * seg / (2 * np.pi)) *
+                   np.exp(1j * np.deg2rad(wire.phase_offset_deg)) *
+                   _turns(mids[:, None, None] * q / (2 * np.pi)))                       # (S, B, n)
+        delta_r = -mids[:, None, None] * cos_theta * sin_beta
+        blades += (returns * range_cell_weight(hub + per_m * delta_r, cell.delay_samples)).sum(axis=0)
+    if shadow is not None:
+        blades *= shadow
+    total = blades.sum(axis=0)
+    if windmill.tower is not None and windmill.tower.rcs_m2 > 0:
+        total += (np.sqrt(windmill.tower.rcs_m2) * np.exp(1j * np.deg2rad(windmill.tower.phase_deg)) *
+                  range_cell_weight(hub, cell.delay_samples))
+    return total
+
+
+def tap_modulation(windmill: Windmill, t_s, wavelength_m: float) -> np.ndarray:
+    """m_k(t) of the tap ``windmill.range_cell``: the turbine's echo, every scatterer (and
+    wire segment, and the tower at the hub) weighted by its range-cell weight; complex128.
+    The taps of one turbine sum to :func:`modulation` of the turbine
+    (``rast.model.physics.extended`` splits a turbine into its taps)."""
+    if windmill.range_cell is None:
+        raise ValueError(f"windmill {windmill.name!r} is not a delay tap")
+    return evaluate_in_chunks(_tap_chunk, windmill, t_s, wavelength_m)

@@ -24,7 +24,7 @@ Geometry, per turbine, in the turbine's own local East-North-Up frame at its hub
 
 Every problem of a layout (missing column, non-numeric cell, a turbine beyond
 the radar's maximum range, ...) is collected and reported at once in a
-:class:`~rast.model.config.ConfigError` naming the line and the column.
+:class:`~rast.model.physics.config.ConfigError` naming the line and the column.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import SPEED_OF_LIGHT_M_S, ConfigError
+from rast.model.physics.config import SPEED_OF_LIGHT_M_S, ConfigError
 
 __all__ = ["make_farm", "TurbineClass", "TURBINE_CLASSES", "RadarSite", "FarmSettings", "Turbine", "Layout",
            "PlacedTurbine", "read_layout", "parse_layout", "place_turbines", "farm_toml",
@@ -578,8 +578,9 @@ def _echo_sum(text: str):
     """The loudest echo sum (``stream.FarmStreams.echo_sum``) of a farm config's
     text, whatever stream pool it names (the sum does not depend on it); the
     reason as a string when its streams cannot be made."""
-    from .config import ConfigError, parse_config
-    from .stream import build_farm_streams
+    from rast.model.physics.config import ConfigError
+    from rast.model.physics.farm import parse_config
+    from rast.model.physics.stream import build_farm_streams
     farm = replace(parse_config(tomllib.loads(text), "the farm config"), ram_depth=None)
     try:
         return build_farm_streams(farm).echo_sum()

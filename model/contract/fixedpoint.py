@@ -1,7 +1,7 @@
 """The fixed-point contract of the replay block, written down once.
 
 Every width, rounding step and saturation of the data path is defined here and
-read from here by three users: the stream quantiser (``rast.model.stream``),
+read from here by three users: the stream quantiser (``rast.model.physics.stream``),
 the bit-exact datapath model and the Amaranth gateware (``rast.hdl``).
 
 Formats are two's complement integers with an implied binary point:

@@ -5,10 +5,10 @@ manifest made for another build."""
 
 from pathlib import Path
 
-from .fixedpoint import (ReplayContract, GAIN_WIDTH, TARGETS, path_latency, board_input_latency,
-                         board_output_latency, rate_mismatch)
-from .powerup import ChannelInit
-from .regmap import register_map, stream_crc32, RegisterMap, CTRL_ENABLE, CTRL_SWAP
+from rast.model.contract.fixedpoint import (ReplayContract, GAIN_WIDTH, TARGETS, path_latency,
+                                            board_input_latency, board_output_latency, rate_mismatch)
+from rast.model.contract.powerup import ChannelInit
+from rast.model.contract.regmap import register_map, stream_crc32, RegisterMap, CTRL_ENABLE, CTRL_SWAP
 
 __all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "free_region", "stream_writes",
            "NoRoomBeside", "manifest_to_register_writes", "manifest_channel_inits"]

@@ -84,10 +84,10 @@ def sfdr(samples, prf_hz: float, cpi_s: float, max_doppler_hz: Sequence[float], 
 def farm_sfdr(farm, samples, bins) -> list[SfdrResult]:
     """:func:`sfdr` of each range bin's row of ``samples`` (shape (bins, pulses)).
 
-    ``bins`` are :class:`rast.model.radar.RangeBin`; each is measured outside
+    ``bins`` are :class:`rast.model.radar.receiver.RangeBin`; each is measured outside
     the largest maximum Doppler of its member windmills.
     """
-    from .turbine import max_doppler_hz
+    from rast.model.physics.turbine import max_doppler_hz
     samples = np.asarray(samples)
     bins = list(bins)
     if samples.ndim != 2 or samples.shape[0] != len(bins):

@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .outputs import check_target, replace_file
-from .stream import FarmStreams, build_farm_streams
+from rast.model.files.outputs import check_target, replace_file
+from rast.model.physics.stream import FarmStreams, build_farm_streams
 
 __all__ = ["write_hex", "read_hex", "write_bin", "read_bin", "write_coe", "write_mif",
            "FORMATS", "DEFAULT_FORMATS", "write_farm_files", "make_farm_files", "output_names", "check_targets"]

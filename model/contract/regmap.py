@@ -1,8 +1,8 @@
 """The replay block's register map, described once.
 
 The Amaranth register file (``rast.hdl.registers``), the bit-exact model
-(``rast.model.datapath``), the host side (``rast.model.loadplan``) and
-``docs/registers.md`` (``rast.model.regdoc``) are all generated from
+(``rast.model.contract.datapath``), the host side (``rast.model.contract.loadplan``) and
+``docs/registers.md`` (``rast.model.contract.regdoc``) are all generated from
 :func:`register_map`. Plain Python, no Amaranth.
 
 Bus: word addresses, 32-bit data, one access per clock, read data registered
@@ -23,8 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fixedpoint import ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS, INTERPOLATIONS
-from .powerup import ChannelInit
+from rast.model.contract.fixedpoint import (ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS,
+                                            INTERPOLATIONS)
+from rast.model.contract.powerup import ChannelInit
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
            "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",

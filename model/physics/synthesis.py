@@ -5,7 +5,7 @@ within ±max Doppler (the blade flashes and the tower's shadow widen it
 slightly). A stream sampled far above that band, such as the seed's
 one-word-per-RTS-sample mode (26.7 M words at 20 MS/s for a band of a few
 kHz), is then almost entirely redundant. This module evaluates the physics
-(:func:`rast.model.turbine.modulation`) only on a *grid* of every h-th output
+(:func:`rast.model.physics.turbine.modulation`) only on a *grid* of every h-th output
 sample and fills the h − 1 samples between grid points with a fixed 8-tap
 Lagrange (degree-7) interpolator: h polyphase filters with the same weights
 in every interval, applied as matrix products written straight into the
@@ -39,7 +39,7 @@ blocks are computed in pieces on a :class:`ComputePool` of threads (numpy
 releases the GIL), with BLAS held to one thread meanwhile, so that the
 values do not depend on the number of cores. ``emit(start, values)`` hands
 each finished piece of the period to a consumer (the file writers of
-:func:`rast.model.ramfiles.make_farm_files`) while the rest is computed.
+:func:`rast.model.files.ramfiles.make_farm_files`) while the rest is computed.
 """
 
 from __future__ import annotations
@@ -53,8 +53,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import BladeFlash, WeightTable, Windmill
-from .turbine import CHUNK_SAMPLES, max_doppler_hz, modulation
+from rast.model.physics.config import BladeFlash, WeightTable, Windmill
+from rast.model.physics.turbine import CHUNK_SAMPLES, max_doppler_hz, modulation
 
 __all__ = ["Synthesis", "synthesise_period", "lagrange_weights", "ComputePool", "usable_cores",
            "GRID_BAND_FRACTION", "CHECK_LIMIT_DBC", "MIN_GRID_STEP", "MIN_FEATURE_GRID_STEPS", "TAPS"]

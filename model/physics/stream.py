@@ -31,11 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import fixedpoint as fx
-from .config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
-from .synthesis import ComputePool, Synthesis, synthesise_period
-from .turbine import max_doppler_hz
-from .regmap import stream_crc32
+from rast.model.contract import fixedpoint as fx
+from rast.model.physics.config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
+from rast.model.physics.synthesis import ComputePool, Synthesis, synthesise_period
+from rast.model.physics.turbine import max_doppler_hz
+from rast.model.contract.regmap import stream_crc32
 
 __all__ = ["MIN_STREAM_WORDS", "MAX_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams", "EchoSum",
            "plan_stream", "stream_times", "quantise", "quantise_words", "build_farm_streams",
@@ -248,7 +248,7 @@ class WindmillStream:
     gain: float = 0.0
     gain_word: int = 0
     tap: int = 0
-    synthesis: Synthesis | None = None   # how the period was made (rast.model.synthesis)
+    synthesis: Synthesis | None = None   # how the period was made (rast.model.physics.synthesis)
     # The words as stored (little-endian uint32, I low); when set, ``i`` and ``q``
     # are int16 views of it (build_farm_streams: no second copy of 26.7 M words).
     packed: np.ndarray | None = None
@@ -424,7 +424,7 @@ class FarmStreams:
             # Range calibration (RTS samples): the converters' latencies from the
             # config. Loading into a board subtracts them and the board's own
             # latency (the build's: its slots and pipeline) from the common delay
-            # (rast.model.loadplan.manifest_to_register_writes, target "board").
+            # (rast.model.contract.loadplan.manifest_to_register_writes, target "board").
             "calibration": {"adc_latency_samples": farm.adc_latency,
                             "dac_latency_samples": farm.dac_latency},
             "windmills": windmills,
@@ -459,12 +459,12 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
                        sink=None) -> FarmStreams:
     """Compute every windmill's period, quantise it, and derive delays, taps and gains.
 
-    The periods come from :func:`rast.model.synthesis.synthesise_period` (grid
+    The periods come from :func:`rast.model.physics.synthesis.synthesise_period` (grid
     interpolation where the stream oversamples its band, else direct), on every
     core: a long stream in pieces, short ones side by side.
     ``progress(name, done, total)`` is called as each windmill's samples are made.
     ``sink``, when given, receives each windmill's results as they become final,
-    for writing them while the rest is computed (``rast.model.ramfiles.make_farm_files``):
+    for writing them while the rest is computed (``rast.model.files.ramfiles.make_farm_files``):
     ``sink.start(windmill, length)``, then ``sink.period(windmill, start, values)``
     and ``sink.words(windmill, start, words)`` for pieces of the complex128 period
     and of the packed words; calls for different windmills may come from different
