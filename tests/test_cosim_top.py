@@ -21,7 +21,8 @@ MODULE = "rast.sim.tb_top"
 STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 
 
-def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=None, pool_words=None):
+def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=None, pool_words=None,
+         max_delay=None, max_tap=None):
     """One case (``pulses``: the scenario's own number, 30 for a farm and 40
     otherwise, unless given); on Icarus (a cycle ~40 times slower) with a
     quarter of the pulses: the mid-run register writes land inside them all
@@ -30,7 +31,8 @@ def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, 
         pulses = 30 if kind == "farm" else 40
     if simulator == "icarus":
         pulses //= 4
-    contract = dict(TEST_CONTRACT, **({} if pool_words is None else {"pool_words": pool_words}))
+    given = dict(pool_words=pool_words, max_delay=max_delay, max_tap=max_tap)
+    contract = dict(TEST_CONTRACT, **{k: v for k, v in given.items() if v is not None})
     sources, top = top_sources(channels, slots=slots, interpolation=interpolation, **contract)
     g, s = STALLS[stalls]
     cocotb_run(sources, top, MODULE, "replay_bulk", simulator=simulator, bulk=True,
@@ -84,11 +86,22 @@ def test_top_time_multiplexed(simulator, channels, kind, stalls, seed):
 @pytest.mark.parametrize("channels, slots, kind, seed", [(66, 10, "random", 41), (66, 10, "farm", 42),
                                                          (64, 8, "random", 43)])
 def test_top_farm_scale(channels, slots, kind, seed):
-    """66 channels, 7 pipelines of 10 slots (the last with 6): the default
-    build's shape with more channels than it has; 64 channels in 8 pipelines
-    of 8 slots: the 64-channel build that meets timing on a 160 MHz fabric
-    (docs/bitstream.md). Verilator: on Icarus each is most of an hour."""
-    _run("verilator", channels, kind, seed, "gaps", slots=slots, pulses=12, pool_words=16384)
+    """66 channels, 7 pipelines of 10 slots (the last with 6): the withdrawn
+    200 MHz shape with more channels than it has; 64 channels in 8 pipelines
+    of 8 slots, the default build's shape, with the pool and delays of
+    examples/farm_atc_sband.toml's cosimulation (test_cosim_e2e's 64-turbine
+    farm), whose Verilator build it shares. Verilator: on Icarus each is most
+    of an hour."""
+    if slots == 8:
+        # the replay block `rast cosim examples/farm_atc_sband.toml --slots 8` builds
+        from pathlib import Path
+        from rast.sim.e2e import prepare
+        atc = prepare(Path(__file__).resolve().parent.parent / "examples" / "farm_atc_sband.toml", 0.001,
+                      slots=8).scenario.contract
+        _run("verilator", channels, kind, seed, "gaps", slots=slots, pulses=12, pool_words=atc.pool_words,
+             max_delay=atc.max_delay, max_tap=atc.max_tap)
+    else:
+        _run("verilator", channels, kind, seed, "gaps", slots=slots, pulses=12, pool_words=16384)
 
 
 @pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)

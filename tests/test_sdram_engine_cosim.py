@@ -87,14 +87,15 @@ def test_64_realistic_turbines_play_from_sdram(tmp_path, capsys):
     """examples/farm_sdram_64.toml (64 x 3 blades x 15 scatterers, flashes, a
     tower: 200,320 stream words, more than a block-RAM pool of the 85F holds)
     loaded through the bus into the simulated SDRAM while LiteDRAM starts and
-    refreshes, then played by 7 pipelines of 10 slots: every output equal to
+    refreshes, then played by 8 pipelines of 8 slots (the board's SDRAM build):
+    every output equal to
     the model, no underflow, no pool error (docs/sdram.md has the 0.2 s run)."""
     from rast.cli import main
     config = Path(__file__).resolve().parent.parent / "examples" / "farm_sdram_64.toml"
     out = tmp_path / "sdram64"
-    assert main(["cosim", str(config), "--slots", "10", "--sdram", "--seconds", "0.005", "--out", str(out)]) == 0
+    assert main(["cosim", str(config), "--slots", "8", "--sdram", "--seconds", "0.005", "--out", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "64 channel(s) in 7 pipeline(s) of 10 slot(s), pool words 262144 in SDRAM" in text
+    assert "64 channel(s) in 8 pipeline(s) of 8 slot(s), pool words 262144 in SDRAM" in text
     rep = json.loads((out / "report.json").read_text())
     assert rep["failure"] is None and rep["mismatches"] == 0
     assert rep["checksummed"] == rep["samples"] >= 50 * 2000
