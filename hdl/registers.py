@@ -1,5 +1,7 @@
 """Memory-mapped register file, generated from ``rast.model.contract.regmap``."""
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Module, Signal, Const, Mux, Cat, Array, Value
 from amaranth.lib import wiring, data
 from amaranth.lib.memory import Memory
@@ -251,11 +253,21 @@ class RegisterFile(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        rmap, bus = self._rmap, self.bus
-        c = rmap.contract
-        N = c.channels
-        m.d.comb += bus.ready.eq(self.take)
+        m.d.comb += self.bus.ready.eq(self.take)
+        # every stage reads the names the stages before it made (``env``)
+        env = SimpleNamespace(m=m, platform=platform, rmap=self._rmap, bus=self.bus, c=self._rmap.contract,
+                            N=self._rmap.contract.channels)
+        for stage in (self._staging, self._landing, self._storage_writes, self._stream_run, self._slot_rams,
+                      self._swap_check, self._commands, self._common_delay, self._pool_write, self._status,
+                      self._read_back):
+            stage(env)
+        return m
 
+    def _staging(self, env):
+        """The access as it travels down its register pipeline, each group's copy
+        of its stages, and the decodes from them a clock or more before the
+        write lands (``at``, ``decoded``, ``landing``, ``writes``, ``clamped_value``)."""
+        m, platform, rmap, bus, N = env.m, env.platform, env.rmap, env.bus, env.N
         # The access travels down a register pipeline, one stage per cycle.
         op = data.StructLayout({"valid": 1, "write": 1, "addr": len(bus.addr), "data": 32})
         depth = self.read_latency
@@ -376,7 +388,17 @@ class RegisterFile(wiring.Component):
             if lo > 0:
                 v = Mux(decoded_compare(field, lo, False, f"below_{name}", unit), lo, v)
             return v
+        env.__dict__.update(op=op, stage=stage, unit_of=unit_of, chains=chains, at=at, storage=storage,
+                          wd=wd, decoded=decoded, landing=landing, decoded_bits=decoded_bits,
+                          decoded_bit=decoded_bit, writes=writes, decoded_compare=decoded_compare,
+                          clamped_value=clamped_value)
 
+    def _landing(self, env):
+        """The write's landing, register to register: per register its strobe, per
+        group of channels (and the global registers) a copy of the data, of the
+        clamped field values and of APPLY."""
+        m, rmap, at, wd, decoded = env.m, env.rmap, env.at, env.wd, env.decoded
+        landing, writes, clamped_value = env.landing, env.writes, env.clamped_value
         apply_addr = rmap.reg("APPLY").addr
         strobe = {}           # register address -> write strobe, landing
         land_data = {}        # channel (None: global) -> the landing data
@@ -425,7 +447,12 @@ class RegisterFile(wiring.Component):
             for ch in ([None] if g is None else self._groups[g]):
                 land_data[ch] = dcopy
                 land_apply[ch] = ap
+        env.__dict__.update(apply_addr=apply_addr, strobe=strobe, land_data=land_data, land_field=land_field,
+                          land_apply=land_apply, next_apply=next_apply, group_hit=group_hit)
 
+    def _storage_writes(self, env):
+        """The fields kept in flip-flops, written at their strobes."""
+        m, rmap, storage, strobe, land_field = env.m, env.rmap, env.storage, env.strobe, env.land_field
         # Generic rw storage.
         for r in rmap.registers:
             for f in r.fields:
@@ -433,6 +460,11 @@ class RegisterFile(wiring.Component):
                     with m.If(strobe[r.addr]):
                         m.d.sync += storage[(r.name, r.channel, f.name)].eq(land_field[(r.addr, f.name)])
 
+    def _stream_run(self, env):
+        """The stream write path's run since the last STREAM_ADDR write, which a
+        SWAP is checked against."""
+        m, rmap, c, storage, strobe = env.m, env.rmap, env.c, env.storage, env.strobe
+        land_field, land_data = env.land_field, env.land_data
         # The stream write path's run since the last STREAM_ADDR write: its
         # start, words (saturating) and CRC-32 register (zlib's value XOR ones).
         # A SWAP is taken only if the run is the channel's BASE, LENGTH and CRC.
@@ -463,6 +495,14 @@ class RegisterFile(wiring.Component):
         with m.Elif(crc_left != 0):
             m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
                          crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
+        env.__dict__.update(addr=addr, data_w=data_w, run_start=run_start, run_count=run_count,
+                          run_crc=run_crc)
+
+    def _slot_rams(self, env):
+        """The per-channel fields in distributed RAMs, one per field and group of
+        channels, and the engine's read of them by slot."""
+        m, rmap, bus, decoded, decoded_bit = env.m, env.rmap, env.bus, env.decoded, env.decoded_bit
+        landing, land_field, group_hit = env.landing, env.land_field, env.group_hit
         # Per group, RAM_FIELDS in distributed RAMs, one per field, by slot
         # (channel groups[g][s] at s), written in the clock a flip-flop would
         # be. Three kinds of read, each a read port (a copy of the RAM):
@@ -569,7 +609,18 @@ class RegisterFile(wiring.Component):
                                  self.values[g][name].eq(Mux(use_reset, reset_value, raw_read(r_slot)))]
             ram_reads.append(reads)
             unstated.append(fresh_of["base"] | fresh_of["length"] | fresh_of["crc"])
+        env.__dict__.update(S=S, D=D, slot_bits=slot_bits, stride_bits=stride_bits, slot_of=slot_of,
+                          slot_at=slot_at, ram_range=ram_range, ram_register=ram_register,
+                          slot_ram=slot_ram, ram_reads=ram_reads, unstated=unstated,
+                          landing_slot=landing_slot)
 
+    def _swap_check(self, env):
+        """The SWAP check: each group compares the stream write path's run with the
+        addressed channel's BASE, LENGTH and CRC; a SWAP taken writes PLAYED."""
+        m, platform, rmap, N, at = env.m, env.platform, env.rmap, env.N, env.at
+        wd, landing, decoded_bit, group_hit, slot_at = env.wd, env.landing, env.decoded_bit, env.group_hit, env.slot_at
+        ram_register, ram_reads, unstated, slot_bits, stride_bits = env.ram_register, env.ram_reads, env.unstated, env.slot_bits, env.stride_bits
+        run_start, run_count, run_crc, landing_slot, slot_ram = env.run_start, env.run_count, env.run_crc, env.landing_slot, env.slot_ram
         rejected = [Signal(name=f"rejected{l}") for l in range(N)]
         stages = MATCH_STAGES
 
@@ -633,7 +684,13 @@ class RegisterFile(wiring.Component):
         # takes its group's result (their OR, one register for every channel,
         # was a latest path of a 16-channel, 100 MS/s build, 6.5 ns)
         match_of = {ch: group_match[g] for g, members in enumerate(self._groups) for ch in members}
+        env.__dict__.update(rejected=rejected, match_of=match_of)
 
+    def _commands(self, env):
+        """Per channel: what the engine reads of it from flip-flops, the applied
+        tap, and the command a CTRL write leaves for its next visit."""
+        m, rmap, N, land_data, land_apply = env.m, env.rmap, env.N, env.land_data, env.land_apply
+        storage, strobe, match_of, rejected = env.storage, env.strobe, env.match_of, env.rejected
         # Per channel: what the engine reads, the applied tap, the command.
         taps = []
         for l in range(N):
@@ -657,7 +714,12 @@ class RegisterFile(wiring.Component):
             with m.Elif(self.cmd_ack[l]):
                 m.d.sync += [rg.force_swap.eq(0), rg.force_pending.eq(0), rg.swap_req.eq(0)]
             m.d.comb += [rg.enable.eq(storage[("CTRL", l, "enable")]), rg.tap.eq(tap)]
+        env.__dict__.update(taps=taps)
 
+    def _common_delay(self, env):
+        """The common delay that applies from the next clock."""
+        m, rmap, storage, strobe, land_field = env.m, env.rmap, env.storage, env.strobe, env.land_field
+        next_apply = env.next_apply
         # The common delay that applies from the next clock, in a register:
         # from APPLY's landing input, a clock before it lands, and the value
         # COMMON_DELAY holds in the next clock (from APPLY's landing
@@ -669,7 +731,11 @@ class RegisterFile(wiring.Component):
         applies = Signal(self._cw, init=common.fields[0].reset, name="common_delay_next")
         m.d.sync += applies.eq(Mux(next_apply, next_cd, applies))
         m.d.comb += self.common_delay_next.eq(applies)
+        env.__dict__.update(applies=applies)
 
+    def _pool_write(self, env):
+        """The pool's write port, registered."""
+        m, data_w, addr, land_data = env.m, env.data_w, env.addr, env.land_data
         # Pool write path, registered.
         m.d.sync += self.wr_en.eq(data_w)
         wr_data = Signal.like(self.wr_data, name="wr_data_q", reset_less=True)     # read under wr_en
@@ -677,6 +743,9 @@ class RegisterFile(wiring.Component):
         with m.If(data_w):
             m.d.sync += [self.wr_addr.eq(addr), wr_data.eq(land_data[None]), addr.eq(addr + 1)]
 
+    def _status(self, env):
+        """The sticky status flags, cleared by the read of STATUS that reports them."""
+        m, rmap, stage = env.m, env.rmap, env.stage
         # Sticky overflow: a read of STATUS samples it at status_delay and
         # clears what it reported (a saturation in that cycle stays set).
         status = rmap.reg("STATUS")
@@ -686,7 +755,16 @@ class RegisterFile(wiring.Component):
         m.d.comb += clear.eq(st.valid & ~st.write & (st.addr == status.addr))
         m.d.sync += flag.eq(Mux(clear, 0, flag) | self.overflow_set)
         m.d.sync += self.underflow.eq(Mux(clear, 0, self.underflow) | self.underflow_set)
+        env.__dict__.update(flag=flag)
 
+    def _read_back(self, env):
+        """The read-back: three parts, each sampled at its own stage, each a
+        registered selection over the registers, ORed."""
+        m, platform, rmap, bus, N = env.m, env.platform, env.rmap, env.bus, env.N
+        stage, at, wd, decoded, landing = env.stage, env.at, env.wd, env.decoded, env.landing
+        storage, strobe, land_data, addr, run_crc = env.storage, env.strobe, env.land_data, env.addr, env.run_crc
+        run_count, rejected, taps, applies, flag = env.run_count, env.rejected, env.taps, env.applies, env.flag
+        ram_reads, slot_at, ram_range, stride_bits, unit_of = env.ram_reads, env.slot_at, env.ram_range, env.stride_bits, env.unit_of
         # Read-back: three parts, each sampled at its own stage, each a
         # registered selection over the registers (SELECT_LEVELS levels), ORed.
         hooks_mirror, hooks_status = {}, {("STATUS", None, "overflow"): flag,
@@ -789,7 +867,6 @@ class RegisterFile(wiring.Component):
         # were the latest path of a two-pipeline build (6.3 ns, 4.9 routing).
         m.d.sync += [bus.r_valid.eq(stage[end].valid & ~stage[end].write),
                      bus.r_data.eq(_or(results) if results else 0)]
-        return m
 
     def _select(self, m, at, delay, words, end):
         """The word of the register a read addresses, sampled at stage

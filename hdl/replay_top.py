@@ -1,6 +1,7 @@
 """The wind-farm replay block of seed Fig. 2.2 as a time-multiplexed engine."""
 
 import operator
+from types import SimpleNamespace
 from functools import reduce
 
 from amaranth.hdl import Module, Signal, Mux, Cat, Const, signed
@@ -26,8 +27,11 @@ from rast.model.contract.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_
 from rast.model.contract.regmap import register_map
 from rast.model.contract.powerup import ChannelInit, pool_contents
 
-__all__ = ["WindFarmReplay", "SDRAM_ADDRESS_WIDTH"]
+__all__ = ["WindFarmReplay", "SDRAM_ADDRESS_WIDTH", "SATURATION_CYCLES"]
 
+#: Clocks from the adder tree's sum to output n in its register: the
+#: saturation flags, then the clip.
+SATURATION_CYCLES = 2
 #: Pipelines whose fetch requests are ORed into one register; more are ORed
 #: in two registered levels.
 REQUEST_GROUP = 4
@@ -174,12 +178,20 @@ class WindFarmReplay(wiring.Component):
         m = Module()
         c = self._contract
         N, M, P = c.channels, c.slots, c.pipelines
-        Sw = REGISTER_STAGING
-        b0 = 0 if M == 1 else 1                       # a pipeline's update stage
-        K = c.output_cycles
-        regs_layout = channel_regs_layout(self._rmap)
-        values_layout = slot_values_layout(self._rmap)
+        # every stage reads the names the stages before it made (``env``)
+        env = SimpleNamespace(m=m, platform=platform, c=c, N=N, M=M, P=P, Sw=REGISTER_STAGING,
+                              b0=0 if M == 1 else 1,                  # a pipeline's update stage
+                              K=c.output_cycles, regs_layout=channel_regs_layout(self._rmap),
+                              values_layout=slot_values_layout(self._rmap))
+        for stage in (self._input, self._registers, self._common_line, self._pool_and_scan,
+                      self._pipelines, self._requests, self._sum_and_output):
+            stage(env)
+        return m
 
+    def _input(self, env):
+        """The slot counter, the input's ready and its credit, the accept and its sample in registers
+        beside the pins."""
+        M, m, platform = env.M, env.m, env.platform
         # ---- the slot counter and the input ------------------------------------
         slot = self.slot
         if M > 1:
@@ -240,7 +252,12 @@ class WindFarmReplay(wiring.Component):
         for k in range(ACCEPT_LAG - 1):
             stepped = kept_register(m, platform, stepped, f"accept_q{k}", reset=True)
             x_in = kept_register(m, platform, x_in, f"x_q{k}")
+        env.__dict__.update(F=F, accept=accept, s0=s0, slot=slot, start=start, stepped=stepped, x_in=x_in)
 
+    def _registers(self, env):
+        """The register file, and when it may take the bus."""
+        K, M, N, P, Sw, b0, c, m, s0 = env.K, env.M, env.N, env.P, env.Sw, env.b0, env.c, env.m, env.s0
+        slot = env.slot
         # ---- registers ---------------------------------------------------------
         # Writes land in the clock before the pipelines' period start (top
         # slot s0, a clock after the accepting one): taken Sw =
@@ -271,6 +288,7 @@ class WindFarmReplay(wiring.Component):
                          take.eq(clock == (take_at - 1) % W)]
         m.d.comb += self.overflow.eq(regs.overflow)
         sdram = c.pool == "sdram"
+        w_held = w_held_addr = w_held_data = w_lost = None          # (SDRAM pool only)
         if sdram:
             # A stream word goes from the register file to the SDRAM pool's
             # write port through a one-word holding register. No access is
@@ -291,7 +309,13 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += regs.take.eq(take & ~busy)
         else:
             m.d.comb += regs.take.eq(take)
+        env.__dict__.update(V=V, regs=regs, sdram=sdram, w_held=w_held, w_held_addr=w_held_addr,
+                            w_held_data=w_held_data, w_lost=w_lost)
 
+    def _common_line(self, env):
+        """The common delay line, c[n] = x[n - COMMON_LAG - COMMON_DELAY], and the block-RAM floorplan."""
+        M, P, c, m, platform, regs, sdram = env.M, env.P, env.c, env.m, env.platform, env.regs, env.sdram
+        stepped, x_in = env.stepped, env.x_in
         # ---- the common delay line: c[n] = x[n - COMMON_LAG - COMMON_DELAY] ------
         # x[n] is handed to the line in the clock before the pipelines' period
         # start (``stepped``) and reaches the RAM in the period start (from M =
@@ -357,7 +381,13 @@ class WindFarmReplay(wiring.Component):
             m.d.sync += [cnt.eq(cnt + 1), cnt_read.eq(cnt_read + 1)]
         m.d.comb += [common.w_en.eq(written), common.w_index.eq(cnt), common.w_data.eq(x),
                      common.r_index.eq(cnt_read), common.r_delay.eq(regs.common_delay_next)]
+        env.__dict__.update(common=common, pool=pool, pool_tag=pool_tag, window_blocks=window_blocks)
 
+    def _pool_and_scan(self, env):
+        """The stream pool and the fetch scan that offers each pipeline's slots a fetch."""
+        P, V, c, m, platform, pool_tag = env.P, env.V, env.c, env.m, env.platform, env.pool_tag
+        regs, sdram, start, w_held = env.regs, env.sdram, env.start, env.w_held
+        w_held_addr, w_held_data, w_lost, pool = env.w_held_addr, env.w_held_data, env.w_lost, env.pool
         # ---- the pool and the fetch scan -----------------------------------------
         if sdram:
             m.submodules.pool = pool = SDRAMStreamPool(SDRAM_ADDRESS_WIDTH, pool_tag.size,
@@ -436,7 +466,18 @@ class WindFarmReplay(wiring.Component):
                                             reset=True),
                               kept_register(m, platform, fill_tag.as_value(), f"fill_tag_g{g}"),
                               kept_register(m, platform, fill_data, f"fill_data_g{g}"))
+        env.__dict__.update(credit=credit, fill_copies=fill_copies, fill_data=fill_data,
+                            fill_pairs=fill_pairs, fill_tag=fill_tag, fill_valid=fill_valid,
+                            grouped=grouped, req_addr=req_addr, req_tag=req_tag, req_valid=req_valid,
+                            scan=scan)
 
+    def _pipelines(self, env):
+        """The pipelines, each with its copies of the accept, c[n], the offer and the pool's answers."""
+        M, N, P, c, common, credit = env.M, env.N, env.P, env.c, env.common, env.credit
+        fill_copies, fill_data, fill_pairs = env.fill_copies, env.fill_data, env.fill_pairs
+        fill_tag, fill_valid, m, platform = env.fill_tag, env.fill_valid, env.m, env.platform
+        pool_tag, regs, regs_layout, scan = env.pool_tag, env.regs, env.regs_layout, env.scan
+        stepped, values_layout, window_blocks = env.stepped, env.values_layout, env.window_blocks
         # ---- the pipelines ---------------------------------------------------------
         pipes = []
         reqs = []
@@ -495,6 +536,13 @@ class WindFarmReplay(wiring.Component):
             m.d.sync += fe.eq(valid_in & (tag_in.pipe == p))
             m.d.comb += [pl.fill_en.eq(fe), pl.fill_tag.eq(ft), pl.fill_data.eq(fd)]
             reqs.append(pl)
+        env.__dict__.update(pipes=pipes, reqs=reqs)
+
+    def _requests(self, env):
+        """The pipelines' fetch requests ORed into the pool's request."""
+        P, grouped, m, pipes, pool_tag, regs = env.P, env.grouped, env.m, env.pipes, env.pool_tag, env.regs
+        req_addr, req_tag, req_valid, reqs = env.req_addr, env.req_tag, env.req_valid, env.reqs
+        sdram = env.sdram
         # Only the offered pipeline asks: the requests are ORed, registered,
         # beyond REQUEST_GROUP pipelines in two levels (the groups', then
         # theirs): eight pipelines spread over the device into one OR were a
@@ -522,8 +570,12 @@ class WindFarmReplay(wiring.Component):
             m.d.sync += underflow_any.eq(Cat(pl.underflow for pl in pipes).any())
             m.d.comb += [regs.underflow_set.eq(underflow_any), self.underflow.eq(regs.underflow)]
 
+    def _sum_and_output(self, env):
+        """The sum over the pipelines, saturation, the output FIFO."""
+        F, K, P, accept, c, m, pipes = env.F, env.K, env.P, env.accept, env.c, env.m, env.pipes
+        regs = env.regs
         # ---- the sum over the pipelines, saturation, the output FIFO --------------
-        assert ACCEPT_LAG + pipes[0].sum_cycles + tree_cycles(P) + 2 == K
+        assert ACCEPT_LAG + pipes[0].sum_cycles + tree_cycles(P) + SATURATION_CYCLES == K
         level = [pl.sum for pl in pipes]
         SW = c.sum_width
         depth = 0
@@ -567,4 +619,4 @@ class WindFarmReplay(wiring.Component):
         m.d.comb += [fifo.w_en.eq(out_valid), fifo.w_data.eq(y.as_value()),
                      self.o.valid.eq(fifo.r_rdy), self.o.payload.eq(fifo.r_data),
                      fifo.r_en.eq(self.o.ready)]
-        return m
+

@@ -31,3 +31,30 @@ def test_fixed_point_worked_example():
     text = (DOCS / "fixed_point.md").read_text()
     for s in ("8850", "6638", "458", "26552", "32767", "L = 2", "M = 10 (P = 7): 40 clocks"):
         assert s in text
+
+
+def test_tdm_engine_md_holds_the_slot_schedule_the_stages_make():
+    """docs/tdm_engine.md's schedule table is the one the pipeline's stages'
+    latencies give for the default build (rast.hdl.pipeline.timeline)."""
+    from rast.hdl.pipeline.timeline import TABLE_BEGIN, TABLE_END, default_contract, schedule_markdown
+    text = (DOCS / "tdm_engine.md").read_text()
+    table = text.split(TABLE_BEGIN, 1)[1].split(TABLE_END, 1)[0].strip()
+    assert table == schedule_markdown(default_contract()).strip(), \
+        "docs/tdm_engine.md's slot schedule is stale: python -m rast.hdl.pipeline.timeline"
+
+
+def test_the_slot_schedule_follows_the_contract():
+    """The events the stages' properties place agree with the contract's own
+    schedule (rast.model.contract.fixedpoint): the pipeline's sum, the tree
+    and the output at engine_output_cycles, for several shapes."""
+    from rast.hdl.pipeline.timeline import slot_schedule
+    from rast.model.contract.fixedpoint import ACCEPT_LAG, engine_output_cycles, tree_cycles, visit_cycles
+    for ch, m in ((1, 1), (16, 2), (64, 8), (66, 10), (5, 3)):
+        c = ReplayContract(channels=ch, slots=m)
+        rows = {what: clock for what, _, clock in slot_schedule(c)}
+        visit = rows["slot s visits: its state at the ring's head, stage A"]
+        assert visit == visit_cycles(m)
+        out = rows["output n in its register, saturated"]
+        assert out + ACCEPT_LAG == engine_output_cycles(m, c.pipelines) == c.output_cycles
+        tree = next(v for k, v in rows.items() if k.startswith("the sum over the"))
+        assert tree - rows["the period's sum over the slots (pipeline ``sum``)"] == tree_cycles(c.pipelines)
