@@ -346,7 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", help="stream name (default: the recording's file name)")
     p.set_defaults(func=cmd_import)
 
-    for module_name in ("verilog", "cosim", "build", "load", "farm"):
+    for module_name in ("verilog", "cosim", "build", "load", "farm", "assess"):
         try:
             module = __import__(f"rast.{module_name}", fromlist=["add_arguments", "run"])
         except ImportError:

@@ -169,6 +169,10 @@ class Farm:
     #: round-trip delay (peak to peak) over delay taps; None: only those with
     #: ``range_extended = true``.
     range_extend_above: float | None = None
+    #: Receiver noise of the model radar (``rast.model.radar.receiver.receive``): the
+    #: power of one complex I/Q sample in dB relative to full scale (a full-scale
+    #: complex tone has power 1, 0 dBFS); None: no noise.
+    noise_dbfs: float | None = None
 
     @property
     def sample_rate_hz(self) -> float:
@@ -180,7 +184,8 @@ class Farm:
 
 _RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
 _FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate",
-              "interpolation", "adc_latency", "dac_latency", "range_extend_above"} | _RADAR_KEYS
+              "interpolation", "adc_latency", "dac_latency", "range_extend_above",
+              "noise_dbfs"} | _RADAR_KEYS
 _INTERPOLATIONS = ("fir", "linear", "hold")
 _WINDMILL_KEYS = {
     "name", "range", "num_blades", "rpm", "rotor_angle", "start_angle", "num_rcs",
@@ -208,6 +213,7 @@ LIMITS = {
     "sample_rate": (1e5, "MHz"), "radar_frequency": (1e7, "MHz"), "prf": (1e8, "Hz"),
     "pulse_width": (1e7, "µs"), "cpi": (1e7, "ms"), "stream_oversampling": (1e6, "× max Doppler"),
     "output_gain_db": (300.0, "dB"), "range_extend_above": (1e12, "RTS samples"),
+    "noise_dbfs": (300.0, "dBFS"),
     # integers
     "num_blades": (1000, ""), "num_rcs": (100_000, ""), "ram_depth": (1 << 32, ""),
     "adc_latency": (1 << 20, ""), "dac_latency": (1 << 20, ""),
@@ -483,6 +489,11 @@ def validate_config(data: dict, source: str | None = None) -> Farm:
     dac_latency = top.integer("dac_latency", 0, minimum=0, unit="RTS samples")
     range_extend_above = top.number("range_extend_above", None, non_negative=True,
                                     unit="RTS samples of delay swept by the blades")
+    noise_dbfs = top.number("noise_dbfs", None, unit="dBFS")
+    if noise_dbfs is not None and noise_dbfs > 0:
+        top.problem("noise_dbfs", f"must be at most 0 dBFS (noise power per complex sample relative to "
+                    f"full scale), not {noise_dbfs!r}")
+        noise_dbfs = None
     interpolation = data.get("interpolation", "fir")
     if interpolation not in _INTERPOLATIONS:
         top.problem("interpolation", f"must be one of {', '.join(map(repr, _INTERPOLATIONS))}, "
@@ -537,7 +548,7 @@ def validate_config(data: dict, source: str | None = None) -> Farm:
     if problems:
         raise ConfigError(problems, source)
     return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
-                interpolation, adc_latency, dac_latency, range_extend_above)
+                interpolation, adc_latency, dac_latency, range_extend_above, noise_dbfs)
 
 
 #: Largest config file read (bytes): a farm of thousands of turbines is a few MB.

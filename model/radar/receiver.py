@@ -20,7 +20,7 @@ from rast.model.physics.turbine import modulation
 from rast.model.contract import fixedpoint as fx
 
 __all__ = ["RangeBin", "range_bins", "pulse_times", "receive", "spectrogram", "Spectrogram", "MAX_PREVIEW_SAMPLES",
-           "spectrogram_correlation"]
+           "spectrogram_correlation", "NOISE_SEED", "receiver_noise", "physics_full_scale"]
 
 
 @dataclass(frozen=True)
@@ -68,12 +68,18 @@ def _replayed(farm_streams: FarmStreams, index: int, t_s: np.ndarray) -> np.ndar
     return (wi + 1j * wq) * (s.gain / (1 << (fx.STREAM_WIDTH - 1)))
 
 
-def receive(farm: Farm, duration_s: float, farm_streams: FarmStreams | None = None):
+def receive(farm: Farm, duration_s: float, farm_streams: FarmStreams | None = None, *,
+            noise_seed: int | None = None):
     """Complex samples per pulse in every range bin.
 
     With ``farm_streams`` the samples are what the RTS replays (quantised,
     interpolated stream words and gains); without, the physics model itself.
     Returns ``(pulse_times_s, bins, samples)`` with samples of shape (bins, pulses).
+
+    With the config's ``noise_dbfs`` every sample gets the receiver's noise
+    (:func:`receiver_noise`, seeded by ``noise_seed``, default :data:`NOISE_SEED`:
+    the same noise on every run); the physics' samples get it at the level the
+    replay would have (:func:`physics_full_scale`), so both see the same SNR.
     """
     t = pulse_times(farm.radar.prf_hz, duration_s)
     bins = range_bins(farm)
@@ -88,7 +94,55 @@ def receive(farm: Farm, duration_s: float, farm_streams: FarmStreams | None = No
     for k, b in enumerate(bins):
         for index in b.members:
             samples[k] += per_windmill[index]
+    if farm.noise_dbfs is not None:
+        unit = 1.0 if farm_streams is not None else 1.0 / physics_full_scale(farm)
+        samples += receiver_noise(samples.shape, farm.noise_dbfs,
+                                  NOISE_SEED if noise_seed is None else noise_seed, unit)
     return t, bins, samples
+
+
+# ---------------------------------------------------------------------------
+# Receiver noise (config key ``noise_dbfs``), so that detection sees a floor.
+
+#: The noise's seed when none is given: runs are reproducible.
+NOISE_SEED = 64
+
+
+def receiver_noise(shape, noise_dbfs: float, seed: int = NOISE_SEED, full_scale: float = 1.0) -> np.ndarray:
+    """Complex white Gaussian noise of ``noise_dbfs`` per complex sample: power
+    ``10**(noise_dbfs/10)·full_scale²`` split evenly between I and Q
+    (``full_scale``: the samples' unit worth full scale, 1 for the replay's).
+    The same ``seed`` gives the same noise."""
+    if not math.isfinite(noise_dbfs):
+        raise ValueError(f"noise_dbfs must be a finite number of dB, not {noise_dbfs!r}")
+    sigma = full_scale * math.sqrt(10 ** (noise_dbfs / 10) / 2)
+    rng = np.random.default_rng(seed)
+    noise = rng.standard_normal((2, *np.atleast_1d(shape)))
+    return sigma * (noise[0] + 1j * noise[1])
+
+
+#: Samples of a period at most that :func:`physics_full_scale` evaluates per windmill.
+_PEAK_SAMPLES = 1 << 18
+
+
+def physics_full_scale(farm: Farm) -> float:
+    """What one unit of the physics' samples (``receive`` without streams) is
+    worth in the replay's full scale: the streams scale the loudest windmill's
+    peak I or Q (``K_l·max|Re m|, |Im m|`` over its period) to ``output_gain_db``
+    (``rast.model.physics.stream.build_farm_streams``). Evaluated on the
+    stream's own grid (at most 2**18 samples of the period), without the FIR
+    interpolator's headroom (a fraction of a dB)."""
+    from rast.model.physics.stream import plan_stream
+    nearest = min(w.echo_range_km for w in farm.windmills)
+    loudest = 0.0
+    for w in farm.windmills:
+        n = min(plan_stream(w, farm).length, _PEAK_SAMPLES)
+        m = modulation(w, np.arange(n) * (w.period_s / n), farm.radar.wavelength_m)
+        peak = max(float(np.abs(m.real).max()), float(np.abs(m.imag).max()))
+        loudest = max(loudest, (nearest / w.echo_range_km) ** 2 * peak)
+    if loudest == 0:
+        return 1.0
+    return 10 ** (farm.output_gain_db / 20) / loudest
 
 
 @dataclass(frozen=True)
