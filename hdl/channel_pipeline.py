@@ -208,7 +208,7 @@ class ChannelPipeline(wiring.Component):
         m.submodules.cache = cache = WordCache(M, readers, copies=2 if interp == "linear" else 1)
         m.d.comb += [cache.fill_en.eq(self.fill_en), cache.fill_tag.eq(self.fill_tag),
                      cache.fill_data.eq(self.fill_data), cache.vslot.eq(sch.vslot)]
-        m.submodules.word = step = LinearStep(interp)
+        m.submodules.linear = step = LinearStep(interp)
         assert step.latency == WORD_CYCLES
         if fir:
             # the FIR's U values wait beside the cache's reads of other interpolations

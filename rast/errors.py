@@ -97,7 +97,7 @@ def read_manifest(path) -> tuple[dict, Path]:
         for key, kind in (("name", str), ("hex_file", str)):
             _need(isinstance(w.get(key), kind), at, f"lacks the text '{key}'")
         _need(_is_int(w.get("length")) and w["length"] >= 1, at, "lacks a positive integer 'length'")
-        _need("crc32" in w or not with_crc, at, f"lacks its 'crc32', which every {manifest['format']} "
+        _need("crc32" in w or not with_crc, at, f"lacks its 'crc32', which every {manifest.get('format')} "
               "stream carries: the manifest was edited; run 'rast stream' again")
         _need("crc32" not in w or (_is_int(w["crc32"]) and 0 <= w["crc32"] <= 0xFFFFFFFF), at,
               f"has a 'crc32' that is not a 32-bit unsigned integer: {w.get('crc32')!r}")

@@ -402,11 +402,13 @@ def _wait_for_switches(bridge, contract, channels, wait, switch_s):
     longest period ``switch_s`` and SWITCH_MARGIN_S more."""
     a = register_map(contract).addr
     waited = 0.0
+    # polls 8 times a period (a read is 7 bytes on the line), at most every 50 ms
+    step = min(0.05, max(switch_s / 8, 1e-3))
     while any(bridge.read(a("CTRL", ch)) >> 1 & 1 for ch in channels):
         if waited > switch_s + SWITCH_MARGIN_S:
             return
-        wait(0.05)
-        waited += 0.05
+        wait(step)
+        waited += step
 
 
 #: Polls of POOL_CHECK's busy bit, after the longest a read-back may take,

@@ -40,7 +40,7 @@ class ModelBoard:
     """A transport for :class:`~rast.model.contract.hostproto.HostBridge` that answers
     from a :class:`ReplayModel` and records the conversation."""
 
-    def __init__(self, model: ReplayModel):
+    def __init__(self, model: ReplayModel, divisor: int | None = None):
         self.model = model
         self.sent = []          # (byte, idle bit times before it)
         self.applied = []       # register writes, (addr, value), in order
@@ -48,10 +48,20 @@ class ModelBoard:
         self._pending = bytearray()
         self._buf = bytearray()
         self._gap = 0
+        # With ``divisor`` (fabric clocks per bit) time passes on the board as
+        # on the line: the model plays (on a silent input) up to each read, the
+        # writes taking effect at the sample their command ends, so a switch
+        # waiting for its stream's wrap is taken when the block would take it.
+        self.divisor = divisor
+        self._clocks = 0        # fabric clocks the host's bytes have taken
+        self._played = 0        # samples the model has run
+        self._queue = []        # (sample, addr, value) written, not yet run
 
     def write(self, data):
         for b in bytes(data):
             self.sent.append((b, self._gap))
+            if self.divisor:
+                self._clocks += host_clocks([(b, self._gap)], self.divisor)
             self._gap = 0
             self._buf.append(b)
             self._parse()
@@ -68,6 +78,7 @@ class ModelBoard:
                     return
                 addr = struct.unpack_from("<H", buf, 1)[0]
                 del buf[:3]
+                self._play_to_now()
                 self._reply(struct.pack("<I", self.model.read(addr)), wait=True)
             elif cmd == CMD_WRITE:
                 if len(buf) < 7:
@@ -94,8 +105,21 @@ class ModelBoard:
         self._gap += int(bit_times)
 
     def _apply(self, addr, value):
-        self.model.write(addr, value)
+        if self.divisor:
+            self._queue.append((self._clocks // self.model.c.slots, addr, value))
+        else:
+            self.model.write(addr, value)
         self.applied.append((addr, value))
+
+    def _play_to_now(self):
+        """A timed board: run the model up to the sample the host is at."""
+        if not self.divisor:
+            return
+        n = max(0, self._clocks // self.model.c.slots - self._played)
+        silent = np.zeros(n, dtype=np.int64)
+        self.model.run_with_writes(silent, silent, [(s - self._played, a, v) for s, a, v in self._queue])
+        self._played += n
+        self._queue = []
 
     def _reply(self, data, wait=False):
         self._pending += data
@@ -262,7 +286,7 @@ def sdram_load_chain(cfg, manifest_dirs, work, *, play_between: int = 20_000, pl
                             **{k: v for k, v in cfg.replay_kwargs().items() if k != "pool"},
                             sample_rate_hz=round(cfg.sample_rate_mhz * 1e6))
     contract = system.system.replay.contract
-    board = ModelBoard(ReplayModel(contract))
+    board = ModelBoard(ReplayModel(contract), divisor=system.divisor)
     bridge = HostBridge(board)
 
     def wait(seconds):                  # the host waits: the line idles

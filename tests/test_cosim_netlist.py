@@ -59,7 +59,7 @@ def test_netlist_top(kind, seed):
 #: real-part gain multiplier, the fifth MULT18X18D, was also caught here; a sign of the first
 #: complex-product multiplier was not: in this short farm its operands stay of one sign.)
 WRONG_SETTINGS = {
-    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "pipe0.window.mem_bits9.bram0"),
+    "dp16kd_regmode": ("DP16KD", "REGMODE_B", '"OUTREG"', '"NOREG"', "pipe0.window.line.mem_bits9.bram0"),
 }
 
 

@@ -101,7 +101,7 @@ class WindowTap(wiring.Component):
         c = self._c
         M, A = c.slots, accept_clock(c.slots)
         win_bits = DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG)
-        m.submodules.window = win = DelayLine(
+        m.submodules.line = win = DelayLine(
             2 * INPUT_WIDTH, c.max_tap, WINDOW_LAG, group_bits=win_bits, sites=self._sites,
             address_copies=-(-2 * INPUT_WIDTH // win_bits))
         assert win.depth == c.window_depth and win.latency == DelayLine.LATENCY + 1
