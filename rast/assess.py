@@ -10,7 +10,7 @@ radar's range-gate samples of a config (what the RTS plays, quantised;
   snr_db, scan, channel);
 * ``summary.json``: false plots per scan, each turbine's detection fraction,
   the velocity bias and spectrum width per turbine gate, the parameters;
-* ``range_doppler.png`` (a stare radar) or ``ppi.png`` (with ``--azimuth``).
+* ``range_doppler.png`` (a stare radar) or ``ppi.png`` (a turning antenna: the config's scan, or ``--azimuth``).
 
 ``--sweep NAME=START:STOP:STEP`` (``wind_from``, ``rpm``, ``scan_start_deg``;
 several make a grid) runs every case as a task on Dask (a local cluster, or
@@ -116,8 +116,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a stare radar's scan in CPIs (default: the whole run)")
     g.add_argument("--azimuth", metavar="FILE.npy",
                    help="the antenna's azimuth per pulse (degrees, one per pulse): dwells, revolutions, a PPI")
-    g.add_argument("--beamwidth-deg", type=_positive("a positive number of degrees"), default=1.4,
-                   help="3-dB beamwidth: the dwell with --azimuth (default 1.4)")
+    g.add_argument("--beamwidth-deg", type=_positive("a positive number of degrees"), default=None,
+                   help="3-dB beamwidth: the dwell of a turning antenna (default: the config's "
+                        "beamwidth_deg, 1.4 when it has none)")
     g.add_argument("--gate-m", type=_positive("a positive number of metres"), default=None,
                    help="range gate spacing (default: the pulse's resolution c·τ/2)")
     w = p.add_argument_group("weather moments")
@@ -173,7 +174,8 @@ def _config(args, farm):
             moments=mo.MomentsConfig(args.moments_pulses, args.moments_filter, args.moments_engine),
             noise_dbfs=args.noise_dbfs, noise_seed=NOISE_SEED if args.noise_seed is None else args.noise_seed,
             physics=args.physics, gate_km=args.gate_m / 1e3 if args.gate_m else None,
-            scan_cpis=args.scan_cpis, beamwidth_deg=args.beamwidth_deg)
+            scan_cpis=args.scan_cpis,
+            beamwidth_deg=args.beamwidth_deg if args.beamwidth_deg is not None else farm.scan.beamwidth_deg)
     except ValueError as error:
         option = {"cpi_pulses": "--cpi-pulses", "nfft": "--nfft", "reference_cells": "--reference-cells",
                   "pulses": "--moments-pulses"}

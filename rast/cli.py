@@ -116,6 +116,10 @@ def cmd_stream(args) -> int:
     _print_synthesis(farm_streams)
     for warning in farm_streams.warnings:
         print(f"rast stream: warning: {warning}", file=sys.stderr)
+    if farm.scan.turning:
+        print(f"rast stream: warning: scan_mode = {farm.scan.mode!r}: the streams are the same as staring; "
+              "the gateware does not apply the antenna scan yet, so a board lights every turbine on every "
+              "pulse (`rast preview --ppi` and `rast assess` model the scan)", file=sys.stderr)
     print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()
@@ -143,6 +147,11 @@ def cmd_preview(args) -> int:
 
     check_output(args.out, folder=False, option="--out")
     farm = load_config(args.config)
+    if args.ppi:
+        return _preview_ppi(args, farm)
+    if args.mti is not None:
+        raise UserError("--mti is a PPI option: give --ppi as well")
+    args.seconds = 10.0 if args.seconds is None else args.seconds
     prf = farm.radar.prf_hz
     pulses, cpi_pulses = round(args.seconds * prf), round(farm.radar.cpi_ms * 1e-3 * prf)
     samples = pulses * len(range_bins(farm))
@@ -191,6 +200,52 @@ def cmd_preview(args) -> int:
     if map_view:
         print(f"drew the range-Doppler map (peak over {spectra[0].times_s.size} CPIs per range bin)"
               + ("" if args.range_doppler else f": more than {MAX_PANELS} range bins"))
+    print(f"wrote {out.resolve()}")
+    return 0
+
+
+def _preview_ppi(args, farm) -> int:
+    """``rast preview --ppi``: one revolution (or ``--seconds``) as the radar's PPI."""
+    from rast.model.files.outputs import atomic_file
+    from rast.model.radar.assess import AssessConfig, simulate
+    import numpy as np
+    from rast.model.radar.ppi import dwell_image, save_ppi
+
+    scan = farm.scan
+    if not scan.turning:
+        raise UserError(f"--ppi draws a turning antenna's revolution, but {args.config} stares "
+                        "(scan_mode = \"stare\"): set scan_mode = \"free\" or \"acp\" and scan_rpm")
+    seconds = scan.revolution_s if args.seconds is None else args.seconds
+    try:
+        scene = simulate(farm, AssessConfig(seconds=seconds, physics=not args.replay))
+        image = dwell_image(scene.samples, scan.beam_azimuth_deg(scene.times_s), scan.beamwidth_deg,
+                            args.mti or 0)
+    except ValueError as error:
+        raise UserError(str(error)) from None
+    grid = scene.grid
+    edges = (grid.first + np.arange(grid.count + 1)) * grid.spacing_km
+    radar = farm.radar
+    mti = f", {args.mti}-pulse MTI" if args.mti else ""
+    title = (f"{Path(args.config).name}: {seconds:g} s at {scan.rpm:g} rpm, {scan.beamwidth_deg:g}° beam, "
+             f"{scan.dwell_pulses(radar.prf_hz):.1f} pulses per dwell{mti}\n"
+             f"{'replayed stream words' if args.replay else 'physics'}, noise {scene.noise_dbfs:g} dBFS, "
+             f"{radar.frequency_mhz / 1e3:g} GHz, PRF {radar.prf_hz:g} Hz")
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with atomic_file(out) as png:
+            save_ppi(png, image, edges, turbines=[(w.azimuth_deg, w.range_km) for w in farm.windmills],
+                     dynamic_range_db=min(args.dynamic_range, 80.0), floor_db=scene.noise_dbfs - 5,
+                     title=title)
+    except OSError as error:
+        raise UserError(f"cannot write {out}: {error.strerror or error}") from None
+    looked = image.pulses > 0
+    lit = np.where(looked, np.nanmax(np.where(looked[:, None], image.power_db(), 0.0), axis=1), -np.inf)
+    print(f"{scene.times_s.size} pulses over {seconds:g} s, {int(looked.sum())} of {image.cells} dwells of "
+          f"{scan.beamwidth_deg:g}° looked at, {image.pulses[looked].mean():.1f} pulses each{mti}")
+    strongest = int(np.nanargmax(lit))
+    print(f"strongest dwell {strongest * scan.beamwidth_deg:g}-{(strongest + 1) * scan.beamwidth_deg:g}°: "
+          f"{lit[strongest]:.1f} dBFS mean power; noise {scene.noise_dbfs:g} dBFS")
     print(f"wrote {out.resolve()}")
     return 0
 
@@ -308,8 +363,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("preview", help="draw the micro-Doppler spectrogram the radar will see")
     p.add_argument("config", help="TOML config (one windmill or a farm)")
     p.add_argument("--out", required=True, help="PNG file to write")
-    p.add_argument("--seconds", type=_number("a positive number of seconds"), default=10.0,
-                   help="radar time to simulate (default 10)")
+    p.add_argument("--seconds", type=_number("a positive number of seconds"), default=None,
+                   help="radar time to simulate (default 10; with --ppi one revolution)")
     p.add_argument("--overlap", type=_number("a fraction in [0, 1)", 0.0, 1.0, low_inclusive=True),
                    default=0.0,
                    help="fraction of a CPI shared by consecutive frames (default 0, as a radar)")
@@ -322,6 +377,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--range-doppler", action="store_true",
                    help="one range-Doppler map (each range bin's peak over the CPIs) instead of a "
                         "spectrogram per range bin; the default beyond 8 range bins")
+    p.add_argument("--ppi", action="store_true",
+                   help="a turning antenna's PPI instead: each range gate's power over each dwell")
+    p.add_argument("--mti", type=int, choices=(2, 3), default=None,
+                   help="with --ppi: a 2- or 3-pulse MTI canceller before the integration")
     p.set_defaults(func=cmd_preview)
 
     p = sub.add_parser("import", help="make a recorded slow-time I/Q series into a stream")

@@ -144,6 +144,10 @@ def _check_options(args, farm) -> None:
     from rast.errors import UserError, check_output
     from rast.model.contract.fixedpoint import ReplayContract
     finite = lambda v: v == v and abs(v) != float("inf")
+    if farm.scan.turning:
+        raise UserError(f"{args.config} turns the antenna (scan_mode = {farm.scan.mode!r}), which the gateware "
+                        "does not apply yet: `rast preview --ppi` and `rast assess` model the scan; "
+                        "cosimulate with scan_mode = \"stare\"")
     if not (finite(args.seconds) and args.seconds > 0):
         raise UserError(f"--seconds must be a positive number of seconds, not {args.seconds:g}")
     samples = args.seconds * farm.sample_rate_hz

@@ -420,14 +420,18 @@ def test_sweep_on_a_local_dask_cluster(tmp_path, capsys):
 
 
 def test_sweep_rpm_factor_and_scan_start(tmp_path):
-    """rpm factors scale every windmill's rotor speed; scan_start_deg is
-    recorded (the model has no scan yet). Threads this time."""
+    """rpm factors scale every windmill's rotor speed; scan_start_deg turns
+    a turning antenna's start and is noted as without effect on a staring
+    one. Threads this time."""
     from rast.model.radar.sweep import case_data, parse_axis
     base = tomllib.loads(ATC.read_text())
     axes = {"rpm": parse_axis("rpm=2x"), "scan_start_deg": parse_axis("scan_start_deg=0,90")}
     data, notes = case_data(base, {"rpm": 2.0, "scan_start_deg": 90.0}, axes, None)
     assert [t["rpm"] for t in data["windmill"]] == [2 * t["rpm"] for t in base["windmill"]]
-    assert notes and "scan_start_deg" in notes[0]
+    assert data["scan_start_deg"] == 90.0 and notes and "stares" in notes[0]
+    turning, notes = case_data(tomllib.loads((EXAMPLES / "asr_scan.toml").read_text()),
+                               {"scan_start_deg": 90.0}, axes, None)
+    assert turning["scan_start_deg"] == 90.0 and notes == []
     out = tmp_path / "r"
     assert main(["assess", str(EXAMPLES / "two_windmills.toml"), "--seconds", "0.05", "--sweep", "rpm=0.5x,1x",
                  "--threads", "--workers", "1", "--out", str(out)]) == 0

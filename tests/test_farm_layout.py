@@ -209,9 +209,10 @@ def test_written_farm_is_ready_for_rast_stream(tmp_path, capsys):
     assert farm.windmills[0].range_km == pytest.approx(math.hypot(3000, 70) / 1e3, abs=1e-6)
     assert farm.windmills[0].radius_m.max() == pytest.approx(63.0)      # blade = rotor diameter / 2
     assert farm.windmills[2].radius_m.max() == pytest.approx(50.0)
-    assert "azimuth spread of" in printed and "is not" in printed
-    # Bearings 0°, 7.1° and 352.9°: a spread of 14.25° through north.
+    # Bearings 0°, 7.1° and 352.9°: a spread of 14.25° through north, each the turbine's azimuth.
     spread = math.degrees(math.atan2(400, 3200)) + math.degrees(math.atan2(500, 4000))
+    expected = [0.0, math.degrees(math.atan2(400, 3200)), 360 - math.degrees(math.atan2(500, 4000))]
+    assert [w.azimuth_deg for w in farm.windmills] == pytest.approx(expected, abs=1e-4)
     assert f"azimuth spread of {spread:.2f} deg" in printed
     assert run(["stream", out, "--out", tmp_path / "s"], capsys)[0] == 0
 

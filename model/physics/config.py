@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rast.model.physics.antenna import ACP_COUNTS, SCAN_MODES, AntennaScan, read_pattern_csv
+
 __all__ = ["ConfigError", "BladeFlash", "WeightTable", "Wire", "Tower", "Radar", "RangeCell",
            "Windmill", "Farm", "read_config_file", "validate_config", "SPEED_OF_LIGHT_M_S", "LIMITS"]
 
@@ -137,6 +139,9 @@ class Windmill:
     range_extended: bool | None = None
     #: Set on the taps a range-extended turbine is split into (never in a config).
     range_cell: RangeCell | None = None
+    #: Bearing from the radar, degrees clockwise from north (``azimuth``): where
+    #: a turning antenna's beam finds the turbine (``rast.model.physics.antenna``).
+    azimuth_deg: float = 0.0
 
     @property
     def echo_range_km(self) -> float:
@@ -173,6 +178,9 @@ class Farm:
     #: power of one complex I/Q sample in dB relative to full scale (a full-scale
     #: complex tone has power 1, 0 dBFS); None: no noise.
     noise_dbfs: float | None = None
+    #: The antenna's scan and pattern (``scan_mode`` and the keys beside it);
+    #: the default stares: every turbine lit on every pulse.
+    scan: AntennaScan = field(default_factory=AntennaScan)
 
     @property
     def sample_rate_hz(self) -> float:
@@ -183,9 +191,11 @@ class Farm:
 # Parsing
 
 _RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
+_SCAN_KEYS = {"scan_mode", "scan_rpm", "scan_start_deg", "acp_per_rev", "beamwidth_deg", "sidelobe_db",
+              "pattern_file"}
 _FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate",
               "interpolation", "adc_latency", "dac_latency", "range_extend_above",
-              "noise_dbfs"} | _RADAR_KEYS
+              "noise_dbfs"} | _RADAR_KEYS | _SCAN_KEYS
 _INTERPOLATIONS = ("fir", "linear", "hold")
 _WINDMILL_KEYS = {
     "name", "range", "num_blades", "rpm", "rotor_angle", "start_angle", "num_rcs",
@@ -193,7 +203,7 @@ _WINDMILL_KEYS = {
     "wire_enable", "wire_radius_min", "wire_radius_max", "wire_reflectivity",
     "wire_phase_offset", "wire_view_angle",
     "tower_rcs", "tower_phase", "tower_shadow_width", "tower_shadow_depth",
-    "stream_rate", "output_file", "range_extended",
+    "stream_rate", "output_file", "range_extended", "azimuth",
 }
 _FLASH_KEYS = {"angle", "width", "gain_db"}
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
@@ -213,7 +223,8 @@ LIMITS = {
     "sample_rate": (1e5, "MHz"), "radar_frequency": (1e7, "MHz"), "prf": (1e8, "Hz"),
     "pulse_width": (1e7, "µs"), "cpi": (1e7, "ms"), "stream_oversampling": (1e6, "× max Doppler"),
     "output_gain_db": (300.0, "dB"), "range_extend_above": (1e12, "RTS samples"),
-    "noise_dbfs": (300.0, "dBFS"),
+    "noise_dbfs": (300.0, "dBFS"), "azimuth": (1e6, "deg"), "scan_rpm": (600.0, "rpm"),
+    "scan_start_deg": (1e6, "deg"), "beamwidth_deg": (180.0, "deg"),
     # integers
     "num_blades": (1000, ""), "num_rcs": (100_000, ""), "ram_depth": (1 << 32, ""),
     "adc_latency": (1 << 20, ""), "dac_latency": (1 << 20, ""),
@@ -392,6 +403,7 @@ def _parse_windmill(table: dict, where: str, problems: list[str], default_rate) 
     rpm = r.number("rpm", required=True, positive=True, unit="revolutions per minute")
     rotor_angle = r.number("rotor_angle", 0.0)
     start_angle = r.number("start_angle", 0.0)
+    azimuth = r.number("azimuth", 0.0, unit="deg")
 
     if "rsc" in table and "rcs" in table:
         r.problem("rcs", "and 'rsc' are the same parameter; give only one")
@@ -460,7 +472,56 @@ def _parse_windmill(table: dict, where: str, problems: list[str], default_rate) 
                     phase_start_deg=phase if phase is not None else np.zeros(0),
                     weighting=weighting, wire=wire, tower=tower,
                     stream_rate=stream_rate, output_file=output_file,
-                    range_extended=range_extended)
+                    range_extended=range_extended, azimuth_deg=float(azimuth % 360.0))
+
+
+#: The lowest two-way floor: the pattern table's smallest step is 2**-15 of
+#: the peak (rast.model.contract.scan), about -90 dB.
+MIN_SIDELOBE_DB = -90.0
+
+
+def _parse_scan(top: _Reader, source: str | None) -> AntennaScan | None:
+    """The farm's antenna scan; keys other than ``scan_mode`` may stay in a
+    staring config (ignored there), so that one key switches the scan off."""
+    data = top.table
+    mode = data.get("scan_mode", "stare")
+    if mode not in SCAN_MODES:
+        top.problem("scan_mode", f"must be one of {', '.join(map(repr, SCAN_MODES))}, not {_short(mode)}")
+        return None
+    rpm = top.number("scan_rpm", None, unit="rpm")
+    if mode != "stare" and rpm is None and "scan_rpm" not in data:
+        top.problem("scan_rpm", f"is required with scan_mode = {mode!r} (revolutions per minute, "
+                    "positive clockwise seen from above" + ("; the radar's nominal rate, which the model "
+                                                            "assumes" if mode == "acp" else "") + ")")
+    elif rpm == 0 and mode != "stare":
+        top.problem("scan_rpm", "must not be 0 in a turning scan (use scan_mode = \"stare\")")
+    start = top.number("scan_start_deg", 0.0, unit="deg")
+    acp = data.get("acp_per_rev", 4096)
+    if isinstance(acp, bool) or acp not in ACP_COUNTS:
+        top.problem("acp_per_rev", f"must be one of {', '.join(map(repr, ACP_COUNTS))}, not {_short(acp)}")
+        acp = 4096
+    beamwidth = top.number("beamwidth_deg", 1.4, positive=True, unit="deg")
+    sidelobe = top.number("sidelobe_db", -50.0, unit="dB")
+    if sidelobe is not None and not MIN_SIDELOBE_DB <= sidelobe <= 0:
+        top.problem("sidelobe_db", f"must be in [{MIN_SIDELOBE_DB:g}, 0] dB (the two-way floor), "
+                    f"not {sidelobe!r}")
+        sidelobe = None
+    pattern = None
+    if "pattern_file" in data:
+        name = data["pattern_file"]
+        if not isinstance(name, str) or not name:
+            top.problem("pattern_file", f"must be the name of a CSV file, not {_short(name)}")
+        else:
+            path = Path(name)
+            if not path.is_absolute() and source:
+                path = Path(source).parent / path       # beside the config
+            try:
+                pattern = read_pattern_csv(path)
+            except ValueError as error:
+                top.problem(None, str(error))
+    if None in (start, beamwidth, sidelobe) or (mode != "stare" and not rpm):
+        return None
+    return AntennaScan(mode, rpm or 0.0, float(start % 360.0), acp, beamwidth, sidelobe, pattern)
 
 
 def validate_config(data: dict, source: str | None = None) -> Farm:
@@ -494,6 +555,7 @@ def validate_config(data: dict, source: str | None = None) -> Farm:
         top.problem("noise_dbfs", f"must be at most 0 dBFS (noise power per complex sample relative to "
                     f"full scale), not {noise_dbfs!r}")
         noise_dbfs = None
+    scan = _parse_scan(top, source)
     interpolation = data.get("interpolation", "fir")
     if interpolation not in _INTERPOLATIONS:
         top.problem("interpolation", f"must be one of {', '.join(map(repr, _INTERPOLATIONS))}, "
@@ -548,7 +610,7 @@ def validate_config(data: dict, source: str | None = None) -> Farm:
     if problems:
         raise ConfigError(problems, source)
     return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
-                interpolation, adc_latency, dac_latency, range_extend_above, noise_dbfs)
+                interpolation, adc_latency, dac_latency, range_extend_above, noise_dbfs, scan)
 
 
 #: Largest config file read (bytes): a farm of thousands of turbines is a few MB.

@@ -488,6 +488,7 @@ def _windmill_table(p: PlacedTurbine, tower_rcs_m2: float | None = None) -> list
         f"rpm = {p.rpm:.4f}",
         f"rotor_angle = {p.rotor_angle_deg:.4f}",
         f"start_angle = {p.start_angle_deg:.4f}",
+        f"azimuth = {p.bearing_deg:.4f}",
         f"num_rcs = {k}",
         "radius = [" + ", ".join(f"{r:.3f}" for r in radii) + "]",
         "rsc = [" + ", ".join(f"{c.point_rcs_m2:g}" for _ in radii) + "]",
@@ -556,8 +557,8 @@ def make_farm(layout: Layout, radar: RadarSite, wind_from_deg: float, *, turbine
         *([f"tower and nacelle: a static return of {tower_rcs_m2:g} m2 per turbine (--tower-rcs; generic, "
            "not measured)"] if tower_rcs_m2 else []),
         f"bearings from the radar {start:.2f}-{end:.2f} deg: an azimuth spread of {width:.2f} deg",
-        "One RTS replays every turbine from the bearing of its own antenna: ranges and aspect",
-        f"angles (rotor_angle) are kept, the azimuth spread of {width:.2f} deg is not.",
+        "each turbine's bearing is its azimuth: a turning antenna (scan_mode, docs/antenna_scan.md) "
+        "lights it as its beam passes; staring, every turbine is lit on every pulse",
     ]
     # Echoes within one pulse of each other add up in the RTS's output: keep
     # their loudest sum at full scale, so that a full-scale pulse never clips.

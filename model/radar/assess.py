@@ -39,7 +39,8 @@ from rast.model.physics.config import SPEED_OF_LIGHT_M_S, Farm
 from rast.model.radar import cfar as cf
 from rast.model.radar import moments as mo
 from rast.model.radar import mtd as mt
-from rast.model.radar.receiver import NOISE_SEED, physics_full_scale, range_bins, receive, receiver_noise
+from rast.model.radar.receiver import (NOISE_SEED, echo_samples, physics_full_scale, range_bins, receive,
+                                      receiver_noise)
 
 __all__ = ["AssessConfig", "GateGrid", "Scene", "Result", "DEFAULT_NOISE_DBFS", "make_grid", "embed",
            "simulate", "scene_from_gates", "process", "summarize", "assess", "write_outputs",
@@ -162,24 +163,6 @@ def _stagger_times(cfg: AssessConfig, prf_hz: float) -> np.ndarray:
     return np.concatenate(starts) if starts else np.zeros(0)
 
 
-def _samples_at(farm: Farm, t: np.ndarray, farm_streams) -> tuple[list, np.ndarray]:
-    """:func:`receive`'s samples at arbitrary pulse times ``t`` (a staggered
-    PRF), without noise: the same sum per range bin (eq. 2.3, 2.24)."""
-    from rast.model.physics.turbine import modulation
-    from rast.model.radar.receiver import _replayed
-    bins = range_bins(farm)
-    nearest = min(w.echo_range_km for w in farm.windmills)
-    per = {}
-    for index, w in enumerate(farm.windmills):
-        per[index] = ((nearest / w.echo_range_km) ** 2 * modulation(w, t, farm.radar.wavelength_m)
-                      if farm_streams is None else _replayed(farm_streams, index, t))
-    samples = np.zeros((len(bins), t.size), dtype=complex)
-    for k, b in enumerate(bins):
-        for index in b.members:
-            samples[k] += per[index]
-    return bins, samples
-
-
 def _check_size(gates: int, pulses: int) -> None:
     if gates * pulses > MAX_ASSESS_SAMPLES:
         raise ValueError(f"{pulses:,} pulses in {gates} range gates are {gates * pulses:.3g} samples, more "
@@ -208,7 +191,7 @@ def simulate(farm: Farm, cfg: AssessConfig, *, farm_streams=None) -> Scene:
     else:
         times = _stagger_times(cfg, prf)
         _check_size(grid.count, times.size)
-        bins, samples = _samples_at(quiet, times, streams)
+        bins, samples = echo_samples(quiet, times, streams)
     gated = embed(samples, [b.range_km for b in bins], grid)
     level = _noise_dbfs(farm, cfg)
     unit = 1.0 / physics_full_scale(quiet) if cfg.physics else 1.0
@@ -220,14 +203,8 @@ def simulate(farm: Farm, cfg: AssessConfig, *, farm_streams=None) -> Scene:
 
 
 def _scan_azimuth(farm: Farm, times_s: np.ndarray):
-    """The antenna's azimuth per pulse when the config describes a turning
-    antenna (``scan_mode`` "free" or "acp", ``scan_rpm``, ``scan_start_deg``:
-    keys the model does not have yet), else None (a stare radar)."""
-    mode = getattr(farm, "scan_mode", "stare")
-    rpm = getattr(farm, "scan_rpm", None)
-    if mode in (None, "stare") or not rpm:
-        return None
-    return np.mod(getattr(farm, "scan_start_deg", 0.0) + 6.0 * rpm * times_s, 360.0)
+    """The beam's azimuth per pulse when the antenna turns, else None (a stare radar)."""
+    return farm.scan.beam_azimuth_deg(times_s) if farm.scan.turning else None
 
 
 def read_gates(path) -> tuple[np.ndarray, dict, Path]:

@@ -53,7 +53,7 @@ def draw_range_doppler(path, scene, result, summary: dict, *, title: str = "") -
 
 def draw_ppi(path, scene, result, summary: dict, *, title: str = "") -> None:
     """Plan position indicator: the plots at their CPI's azimuth and range
-    (colour: SNR), the turbines where their azimuth is known."""
+    (colour: SNR), the turbines at their azimuths."""
     fig = plt.figure(figsize=(8, 8), layout="constrained")
     ax = fig.add_subplot(projection="polar")
     ax.set_theta_zero_location("N")
@@ -64,9 +64,7 @@ def draw_ppi(path, scene, result, summary: dict, *, title: str = "") -> None:
         points = ax.scatter(az, r, c=result.plot_snr_db, s=10, cmap="plasma")
         fig.colorbar(points, ax=ax, label="SNR (dB)", shrink=0.7)
     for w in scene.farm.windmills:
-        a = getattr(w, "azimuth_deg", None) or getattr(w, "azimuth", None)
-        if a is not None:
-            ax.plot([np.deg2rad(a)], [w.range_km], marker="x", color="black", markersize=5)
+        ax.plot([np.deg2rad(w.azimuth_deg)], [w.range_km], marker="x", color="black", markersize=5)
     top = scene.grid.centres_km[-1] + scene.grid.spacing_km
     ax.set_rlim(0, top)
     ax.set_title(f"{title or 'rast assess'}: {summary['plots']} plots in {summary['scans']} scan(s)", fontsize=9)

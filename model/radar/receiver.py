@@ -18,8 +18,9 @@ from rast.model.physics.config import SPEED_OF_LIGHT_M_S, Farm
 from rast.model.physics.stream import FarmStreams
 from rast.model.physics.turbine import modulation
 from rast.model.contract import fixedpoint as fx
+from rast.model.contract import scan as sc
 
-__all__ = ["RangeBin", "range_bins", "pulse_times", "receive", "spectrogram", "Spectrogram", "MAX_PREVIEW_SAMPLES",
+__all__ = ["RangeBin", "range_bins", "pulse_times", "receive", "echo_samples", "spectrogram", "Spectrogram", "MAX_PREVIEW_SAMPLES",
            "spectrogram_correlation", "NOISE_SEED", "receiver_noise", "physics_full_scale"]
 
 
@@ -54,18 +55,45 @@ def pulse_times(prf_hz: float, duration_s: float) -> np.ndarray:
 def _replayed(farm_streams: FarmStreams, index: int, t_s: np.ndarray) -> np.ndarray:
     """What the RTS plays for windmill ``index`` at times t: the stream word
     at the multiplier, under the farm's interpolation, integer for integer as
-    the bit-exact model (``stream_words``), times the gain."""
+    the bit-exact model (``stream_words``), times the gain and, with a turning
+    antenna, the pattern word of the beam's offset at that sample
+    (``rast.model.contract.scan``)."""
     from rast.model.contract.datapath import stream_words
-    s = next(s for s in farm_streams.streams if s.windmill is farm_streams.farm.windmills[index])
-    n = np.round(t_s * farm_streams.farm.sample_rate_hz).astype(np.int64)
+    farm = farm_streams.farm
+    s = next(s for s in farm_streams.streams if s.windmill is farm.windmills[index])
+    n = np.round(t_s * farm.sample_rate_hz).astype(np.int64)
     # n * increment passes 2**63 after 2**31 samples at one word per sample:
     # reduce n by the phase's period first (exact, Python integers).
     modulus = s.plan.length << fx.PHASE_FRAC_BITS
     period = modulus // math.gcd(modulus, s.plan.phase_increment) if s.plan.phase_increment else 1
     phase = ((n % period) * s.plan.phase_increment) % modulus if period < (1 << 31) else np.array(
         [(int(k) * s.plan.phase_increment) % modulus for k in n], dtype=np.int64)
-    wi, wq = stream_words(farm_streams.farm.interpolation, s.words, s.plan.length, phase)
-    return (wi + 1j * wq) * (s.gain / (1 << (fx.STREAM_WIDTH - 1)))
+    wi, wq = stream_words(farm.interpolation, s.words, s.plan.length, phase)
+    echo = (wi + 1j * wq) * (s.gain / (1 << (fx.STREAM_WIDTH - 1)))
+    if farm.scan.turning:
+        table = sc.pattern_words(farm.scan)
+        offset = sc.beam_codes(farm.scan, farm.sample_rate_hz, n) - sc.azimuth_code(s.windmill.azimuth_deg)
+        echo = echo * (sc.pattern_lookup(table, offset) / sc.PATTERN_ONE)
+    return echo
+
+
+def echo_samples(farm: Farm, t_s: np.ndarray, farm_streams: FarmStreams | None = None):
+    """The samples of every range bin at pulse times ``t_s`` (any spacing),
+    without noise: each bin the sum of its windmills' echoes (eq. 2.3, 2.24),
+    each weighed by the antenna's two-way pattern when it turns. Returns
+    ``(bins, samples)``, samples of shape (bins, pulses)."""
+    bins = range_bins(farm)
+    nearest = min(w.echo_range_km for w in farm.windmills)
+    samples = np.zeros((len(bins), np.size(t_s)), dtype=complex)
+    for k, b in enumerate(bins):
+        for index in b.members:
+            w = farm.windmills[index]
+            if farm_streams is None:
+                samples[k] += ((nearest / w.echo_range_km) ** 2 * modulation(w, t_s, farm.radar.wavelength_m)
+                               * farm.scan.amplitude(t_s, w.azimuth_deg))
+            else:
+                samples[k] += _replayed(farm_streams, index, t_s)
+    return bins, samples
 
 
 def receive(farm: Farm, duration_s: float, farm_streams: FarmStreams | None = None, *,
@@ -82,18 +110,7 @@ def receive(farm: Farm, duration_s: float, farm_streams: FarmStreams | None = No
     replay would have (:func:`physics_full_scale`), so both see the same SNR.
     """
     t = pulse_times(farm.radar.prf_hz, duration_s)
-    bins = range_bins(farm)
-    nearest = min(w.echo_range_km for w in farm.windmills)
-    per_windmill = {}
-    for index, w in enumerate(farm.windmills):
-        if farm_streams is None:
-            per_windmill[index] = (nearest / w.echo_range_km) ** 2 * modulation(w, t, farm.radar.wavelength_m)
-        else:
-            per_windmill[index] = _replayed(farm_streams, index, t)
-    samples = np.zeros((len(bins), t.size), dtype=complex)
-    for k, b in enumerate(bins):
-        for index in b.members:
-            samples[k] += per_windmill[index]
+    bins, samples = echo_samples(farm, t, farm_streams)
     if farm.noise_dbfs is not None:
         unit = 1.0 if farm_streams is not None else 1.0 / physics_full_scale(farm)
         samples += receiver_noise(samples.shape, farm.noise_dbfs,

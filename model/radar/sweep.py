@@ -10,9 +10,8 @@ Axes:
   ``rast farm`` wrote) or given (``--layout``, ``--radar``);
 * ``rpm``: every windmill's rotor speed, a value in rpm, or a factor on each
   windmill's own with a trailing ``x`` (``rpm=0.8x,1x,1.2x``);
-* ``scan_start_deg``: the antenna's azimuth at t = 0, a config key of the
-  scan (set in the config when the model knows the key; until then recorded
-  with the case and without effect).
+* ``scan_start_deg``: the antenna's azimuth at t = 0 (docs/antenna_scan.md);
+  without effect, and noted so, on a config whose antenna stares.
 
 Values: ``start:stop:step`` (stop excluded, as Python's ``range``:
 ``0:360:15`` is 24 directions) or a comma-separated list. Several axes make a
@@ -168,7 +167,6 @@ def _farm_text(recipe: LayoutRecipe, base: dict, wind_from_deg: float) -> str:
 
 def case_data(base: dict, values: dict, axes: dict[str, Axis], recipe: LayoutRecipe | None) -> tuple[dict, list[str]]:
     """The config document of one case, and notes on what it could not set."""
-    from rast.model.physics import config as cfgmod
     notes = []
     data = dict(base)
     if "wind_from" in values:
@@ -189,10 +187,9 @@ def case_data(base: dict, values: dict, axes: dict[str, Axis], recipe: LayoutRec
         else:
             data["rpm"] = data.get("rpm", 0) * values["rpm"] if axis.factor else values["rpm"]
     if "scan_start_deg" in values:
-        if "scan_start_deg" in cfgmod._FARM_KEYS:
-            data["scan_start_deg"] = values["scan_start_deg"]
-        else:
-            notes.append("scan_start_deg is not a key of the model yet: recorded, without effect")
+        data["scan_start_deg"] = values["scan_start_deg"]
+        if data.get("scan_mode", "stare") == "stare":
+            notes.append("scan_start_deg has no effect: the config's antenna stares (scan_mode)")
     return data, notes
 
 
