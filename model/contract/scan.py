@@ -8,10 +8,17 @@
   RTS samples, exactly (a rate within half a sample per revolution of the
   asked one; a binary phase accumulator of 32 bits would be 0.6 % off at
   12.5 rpm and 20 MS/s). The position counts ``2**16`` per sample modulo
-  ``P · 2**16`` from ``round(start_deg / 360 · P · 2**16)`` (down for an
-  anticlockwise scan); the beam's code is the position over ``P``, rounded
-  down: a code and a remainder below ``P``, the remainder growing by 2**16 a
-  sample and carrying into the code. Following the radar: the ACP count times
+  ``P · 2**16`` from the start's code times ``P`` (down for an anticlockwise
+  scan); the beam's code is the position over ``P``, rounded down: a code
+  and a remainder below ``P``, the remainder growing (shrinking) by 2**16 a
+  sample and carrying into the code. ``P`` is below 2**32.
+* Following the radar: ``N`` ACPs a revolution (``acp_per_rev``, or learned:
+  the count between two ARPs, when at least ``ACP_MIN_LEARN`` and no ARP was
+  missed in between; 65536 until one is learned); the count since the last
+  ARP ``k`` gives the code ``floor(k · 2**16 / N) mod 2**16``. An ARP and an
+  ACP in the same step: the ARP first (the ACP is the revolution's first).
+  An ACP while ``k = N`` means an ARP was missed: ARP-lost, until the next
+  ARP; the count and the code go on. Following the radar: the ACP count times
   ``2**16 / acp_per_rev``, rounded down.
 * The offset ``o = beam − turbine`` wraps modulo 2**16 and is read signed.
 * The pattern: a table of ``PATTERN_ENTRIES`` unsigned words of
@@ -37,7 +44,8 @@ from rast.model.contract.fixedpoint import round_half_up
 
 __all__ = ["AZIMUTH_BITS", "AZIMUTH_CODES", "PATTERN_INDEX_BITS", "PATTERN_ENTRIES",
            "PATTERN_WIDTH", "PATTERN_FRAC", "PATTERN_ONE", "MAX_PATTERN_SHIFT", "azimuth_code",
-           "samples_per_revolution", "free_beam_codes", "acp_beam_code", "pattern_shift", "span_deg",
+           "samples_per_revolution", "free_beam_codes", "acp_beam_code", "AcpTrack", "ACP_MIN_LEARN",
+           "ACP_UNLEARNED", "pattern_shift", "span_deg",
            "PatternWords", "pattern_words", "pattern_lookup", "scanned_gain", "beam_codes"]
 
 AZIMUTH_BITS = 16
@@ -59,6 +67,9 @@ def azimuth_code(azimuth_deg) -> np.ndarray:
 def samples_per_revolution(rpm: float, sample_rate_hz: float) -> int:
     """``P``: RTS samples per revolution of the free-running beam."""
     p = round(sample_rate_hz * 60.0 / abs(rpm))
+    if p >= 1 << 32:
+        raise ValueError(f"scan_rpm {rpm:g} is a revolution of more than 2**32 RTS samples at "
+                         f"{sample_rate_hz / 1e6:g} MS/s: at least {sample_rate_hz * 60 / (1 << 32):.3g} rpm")
     if p < AZIMUTH_CODES:
         raise ValueError(f"scan_rpm {rpm:g} turns more than one azimuth code per RTS sample at "
                          f"{sample_rate_hz / 1e6:g} MS/s: at most {sample_rate_hz * 60 / AZIMUTH_CODES:g} rpm")
@@ -69,7 +80,7 @@ def free_beam_codes(start_deg: float, rpm: float, sample_rate_hz: float, steps) 
     """The free-running beam's azimuth code at RTS samples ``steps``."""
     p = samples_per_revolution(rpm, sample_rate_hz)
     modulus = p * AZIMUTH_CODES
-    start = round((start_deg % 360.0) / 360.0 * modulus) % modulus
+    start = int(azimuth_code(start_deg)) * p
     n = np.asarray(steps, dtype=np.int64) % p                  # the position's period is P samples
     direction = 1 if rpm > 0 else -1
     position = (start + direction * n * AZIMUTH_CODES) % modulus
@@ -77,8 +88,60 @@ def free_beam_codes(start_deg: float, rpm: float, sample_rate_hz: float, steps) 
 
 
 def acp_beam_code(count, acp_per_rev: int) -> np.ndarray:
-    """The beam's code after ``count`` ACPs since the ARP: ``count · 2**16 // acp_per_rev``."""
-    return (np.asarray(count, dtype=np.int64) * AZIMUTH_CODES) // int(acp_per_rev)
+    """The beam's code after ``count`` ACPs since the ARP: ``floor(count · 2**16 / N) mod 2**16``."""
+    return (np.asarray(count, dtype=np.int64) * AZIMUTH_CODES) // int(acp_per_rev) % AZIMUTH_CODES
+
+
+#: Fewest ACPs between two ARPs that "auto" takes as the count of a revolution.
+ACP_MIN_LEARN = 256
+#: The count per revolution before one is learned.
+ACP_UNLEARNED = AZIMUTH_CODES
+
+
+class AcpTrack:
+    """The beam following the radar, step by step (the contract's rule above).
+
+    ``acp_per_rev``: N, or "auto". :meth:`run` takes the steps' ACP and ARP
+    flags (one per step) and returns each step's code as seen by the step:
+    after the step's own ARP and ACP."""
+
+    def __init__(self, acp_per_rev):
+        self.auto = acp_per_rev == "auto"
+        self.fixed = None if self.auto else int(acp_per_rev)
+        self.restart()
+
+    def restart(self) -> None:
+        """Count, code and what was learned cleared (the generator's restart)."""
+        self.n = ACP_UNLEARNED if self.auto else self.fixed
+        self.count = 0
+        self.lost = False
+        self.learned = False
+
+    def event(self, arp: bool, acp: bool) -> None:
+        if arp:
+            if self.auto and not self.lost and ACP_MIN_LEARN <= self.count <= AZIMUTH_CODES:
+                self.n, self.learned = self.count, True
+            self.count, self.lost = 0, False
+        if acp:
+            if self.count == self.n:
+                self.lost = True
+            self.count += 1
+
+    @property
+    def code(self) -> int:
+        return (self.count * AZIMUTH_CODES // self.n) % AZIMUTH_CODES
+
+    def run(self, acp, arp) -> np.ndarray:
+        acp, arp = np.asarray(acp, dtype=bool), np.asarray(arp, dtype=bool)
+        codes = np.zeros(acp.size, dtype=np.int64)
+        events = np.flatnonzero(acp | arp)
+        last = 0
+        for k in events:
+            codes[last:k] = self.code
+            self.event(bool(arp[k]), bool(acp[k]))
+            last = k
+        codes[last:] = self.code
+        return codes
 
 
 def span_deg(shift: int) -> float:

@@ -1,0 +1,89 @@
+"""A pipeline's pattern gain: the channel's gain times the antenna's
+two-way pattern at the beam's offset from the channel's azimuth (the
+contract's rule, ``rast.model.contract.scan``; docs/antenna_scan.md)."""
+
+from amaranth.hdl import Module, Signal, Mux
+from amaranth.lib import wiring
+from amaranth.lib.memory import Memory
+from amaranth.lib.wiring import In, Out
+
+from rast.model.contract.fixedpoint import GAIN_WIDTH
+from rast.model.contract.scan import (AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_ENTRIES, PATTERN_WIDTH,
+                                      PATTERN_FRAC, PATTERN_ONE, MAX_PATTERN_SHIFT)
+from ..ecp5_primitives import RegisteredMultiplier
+
+__all__ = ["PatternGain"]
+
+
+class PatternGain(wiring.Component):
+    """``round_half_up(gain · word, 15)``, ``word`` the pattern table's entry
+    for ``beam − azimuth`` (the floor word beyond the table's span; 2**15,
+    0 dB, when ``scan`` is off), :attr:`latency` clocks after its inputs.
+
+    The stages: the offset; the table's index and whether the offset lies
+    in its span (``shift`` 0..6); the table's read (one block RAM, its own
+    write port from the register file); the word or the floor; the product
+    (one MULT18X18D with input and output registers); the rounding.
+
+    Members
+    -------
+    gain : In(GAIN_WIDTH), azimuth : In(AZIMUTH_BITS), beam : In(AZIMUTH_BITS)
+        The visiting channel's gain and azimuth, the step's beam.
+    scan : In(1), shift : In(3), floor : In(PATTERN_WIDTH)
+        The scan's settings (held while the scan plays).
+    w_en, w_addr, w_data : In
+        A table entry written.
+    o : Out(GAIN_WIDTH)
+    """
+
+    latency = 7
+
+    def __init__(self):
+        super().__init__({
+            "gain": In(GAIN_WIDTH), "azimuth": In(AZIMUTH_BITS), "beam": In(AZIMUTH_BITS),
+            "scan": In(1), "shift": In(3), "floor": In(PATTERN_WIDTH),
+            "w_en": In(1), "w_addr": In(PATTERN_INDEX_BITS), "w_data": In(PATTERN_WIDTH),
+            "o": Out(GAIN_WIDTH),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        # the gain and the scan flag travel beside the stages
+        def follow(value, name, n):
+            out = value
+            for k in range(n):
+                nxt = Signal.like(value, name=f"{name}{k + 1}")
+                m.d.sync += nxt.eq(out)
+                out = nxt
+            return out
+
+        offset = Signal(AZIMUTH_BITS)
+        m.d.sync += offset.eq(self.beam - self.azimuth)                               # 1
+        index, inside = Signal(PATTERN_INDEX_BITS), Signal()
+        shift = follow(self.shift, "shift", 1)
+        with m.Switch(shift):                                                         # 2
+            for k in range(MAX_PATTERN_SHIFT + 1):
+                with m.Case(k):
+                    u = Signal(AZIMUTH_BITS + 1, name=f"u_shift{k}")
+                    m.d.comb += u.eq(offset.as_signed() + (1 << (PATTERN_INDEX_BITS - 1 + k)))
+                    m.d.sync += [index.eq(u[k:k + PATTERN_INDEX_BITS]),
+                                 inside.eq(u[k + PATTERN_INDEX_BITS:] == 0)]
+            with m.Default():
+                m.d.sync += [index.eq(0), inside.eq(0)]
+        m.submodules.table = table = Memory(shape=PATTERN_WIDTH, depth=PATTERN_ENTRIES, init=[])
+        wp = table.write_port()
+        rp = table.read_port(transparent_for=())
+        m.d.comb += [wp.en.eq(self.w_en), wp.addr.eq(self.w_addr), wp.data.eq(self.w_data),
+                     rp.addr.eq(index), rp.en.eq(1)]                                  # 3: the read
+        inside3 = follow(inside, "inside", 1)
+        scan3, floor3 = follow(self.scan, "scan", 3), follow(self.floor, "floor", 3)
+        word = Signal(PATTERN_WIDTH + 1)
+        m.d.sync += word.eq(Mux(scan3, Mux(inside3, rp.data, floor3), PATTERN_ONE))  # 4
+        m.submodules.mul = mul = RegisteredMultiplier(GAIN_WIDTH + 1, PATTERN_WIDTH + 1, input_reg=True)
+        gain4 = follow(self.gain, "gain", 4)
+        m.d.comb += [mul.en.eq(1), mul.a.eq(gain4), mul.b.eq(word)]                  # 5, 6
+        rounded = Signal(GAIN_WIDTH)
+        m.d.sync += rounded.eq((mul.o + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)    # 7
+        m.d.comb += self.o.eq(rounded)
+        assert 4 + 2 + 1 == self.latency
+        return m
