@@ -8,7 +8,7 @@ EXAMPLE ?= examples/two_windmills.toml
 BITSTREAM_OUT ?= build/bitstream
 OUT ?= out/two_windmills
 
-.PHONY: run test venv bench bench-cosim bench-bitstream bitstream clean
+.PHONY: run test test-fast venv bench bench-cosim bench-bitstream timing-table bitstream clean
 
 venv: $(STAMP)
 
@@ -25,6 +25,11 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist worksteal -ra --durations=25 $(PYTEST_ARGS)
 
+# The edit-test tier: everything but the tests marked slow (bitstream builds,
+# long cosimulations), which `make test` and CI still run.
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -n 2 --dist worksteal -m "not slow" -q --durations=10 $(PYTEST_ARGS)
+
 bench: $(STAMP)
 	$(BIN)/python bench/bench_streams.py
 	$(BIN)/python bench/bench_interpolation.py
@@ -36,7 +41,14 @@ bench-cosim: $(STAMP)
 bench-bitstream: $(STAMP)
 	$(BIN)/python bench/bench_bitstream.py $(BENCH_ARGS)
 
-# ULX3S-85F, 64 channels, 20 MS/s on a 200 MHz fabric by default; BUILD_ARGS="--clock-mhz 160 --seed 3" for the same 64 channels at M = 8, met at that nextpnr seed (docs/bitstream.md).
+# The README's timing table from the builds' reports: every seed of README_ROWS
+# (bench/bench_bitstream.py) of the current netlist, the missing ones built
+# (hours: one place and route at a time); TIMING_ARGS=--no-build writes it from
+# what is there.
+timing-table: $(STAMP)
+	$(BIN)/python bench/bench_bitstream.py --readme $(TIMING_ARGS)
+
+# ULX3S-85F, 64 channels at 20 MS/s on a 160 MHz fabric (M = 8) by default (docs/bitstream.md); BUILD_ARGS for others.
 bitstream: $(STAMP)
 	$(BIN)/rast build --out $(BITSTREAM_OUT) $(BUILD_ARGS)
 

@@ -109,29 +109,41 @@ def current_netlist(label, kw) -> dict:
     return netlist_identity(out)
 
 
+def build_name(cfg: BuildConfig) -> str:
+    """A build's name in the README's table, from its configuration (the
+    default's in bold)."""
+    c = cfg.contract()
+    name = (f"{c.channels} ch{' from SDRAM' if cfg.pool == 'sdram' else ''}, {cfg.sample_rate_mhz:g} MS/s, "
+            f"{cfg.clock_mhz:g} MHz (M = {c.slots}, {c.pipelines} pipelines), pool {cfg.pool_words:,} words")
+    return f"**the default: {name}**" if cfg == BuildConfig() else name
+
+
 def table_row(label, seeds, reports) -> str:
-    """One row of the README's timing table from the rung's reports (one per seed)."""
+    """One row of the README's timing table from the rung's reports (one per
+    seed; None for a seed not built of the current netlist)."""
     what, kw = LADDER[label]
     cfg = BuildConfig(**kw)
     c = cfg.contract()
     asked = cfg.clock_mhz
-    fmax = [r["timing"]["fmax_mhz"] for r in reports]
-    met = [r["timing"]["met"] for r in reports]
+    built = [r for r in reports if r is not None]
+    if not built:
+        return (f"| {build_name(cfg)} | `{command_of(kw)}` | seeds {'/'.join(map(str, seeds))}: not built of "
+                "this netlist | - | - | - |")
+    fmax = [r["timing"]["fmax_mhz"] for r in built]
+    met = [r["timing"]["met"] for r in built]
     worst = min(fmax) / asked - 1
-    res = reports[0]["resources"]
+    res = built[0]["resources"]
     used = ", ".join(f"{res[k]['used']:,} {name}" for k, name in (("luts", "LUT"), ("ffs", "FF"),
                                                                   ("dsps", "DSP"), ("block_rams", "DP16KD")))
-    controller = [r["timing"]["domains"].get("sdram", {}).get("achieved_mhz") for r in reports]
+    controller = [r["timing"]["domains"].get("sdram", {}).get("achieved_mhz") for r in built]
     extra = (f"; controller {min(controller):.1f}-{max(controller):.1f} MHz (50)"
              if all(controller) and cfg.pool == "sdram" else "")
-    commits = sorted({r["netlist"]["commit"] or "?" for r in reports})
-    digests = sorted({r["netlist"]["rtlil_sha256"][:12] for r in reports})
-    name = (f"{c.channels} ch{' from SDRAM' if cfg.pool == 'sdram' else ''}, {cfg.sample_rate_mhz:g} MS/s, "
-            f"{asked:g} MHz (M = {c.slots}, {c.pipelines} pipelines), pool {cfg.pool_words:,} words")
-    if not kw:
-        name = f"**the default: {name}**"
-    verdict = (f"**{sum(met)} of {len(met)}**" + (f", worst +{100 * worst:.1f} %" if all(met) else ""))
-    by_seed = " / ".join(f"{f:.1f}" for f in fmax)
+    commits = sorted({r["netlist"]["commit"] or "?" for r in built})
+    digests = sorted({r["netlist"]["rtlil_sha256"][:12] for r in built})
+    name = build_name(cfg)
+    verdict = (f"**{sum(met)} of {len(met)}**" + (f", worst +{100 * worst:.1f} %" if all(met) else "")
+               + (f" ({len(reports) - len(built)} seed(s) not built)" if len(built) < len(reports) else ""))
+    by_seed = " / ".join("not built" if r is None else f"{r['timing']['fmax_mhz']:.1f}" for r in reports)
     return (f"| {name} | `{command_of(kw)}` | seeds {'/'.join(map(str, seeds))}: {by_seed}{extra} | "
             f"{verdict} | {used} | {', '.join(f'`{x}`' for x in commits)} (RTLIL {', '.join(digests)}) |")
 
@@ -164,7 +176,9 @@ def readme_table(rebuild_stale=True):
             old = json.loads(rp.read_text()) if rp.exists() else None
             if old is None or "timing" not in old or old.get("netlist", {}).get("rtlil_sha256") != now["rtlil_sha256"]:
                 if not rebuild_stale:
-                    raise SystemExit(f"{label} seed {seed}: no report of the current netlist in {out}")
+                    print(f"{label} seed {seed}: no report of the current netlist in {out}", flush=True)
+                    reports.append(None)
+                    continue
                 t0 = time.monotonic()
                 build(BuildConfig(**kw, seed=seed), out, quiet=True)
                 print(f"built {label} seed {seed} in {time.monotonic() - t0:.0f} s", flush=True)
@@ -251,6 +265,9 @@ def main():
     ap.add_argument("--readme", action="store_true",
                     help="write the README's timing table (README_ROWS at their seeds; stale or missing "
                          "reports built again)")
+    ap.add_argument("--no-build", action="store_true",
+                    help="with --readme: build nothing; seeds without a report of the current netlist "
+                         "are shown as not built")
     ap.add_argument("--late", type=int, metavar="K", default=0,
                     help="build with nextpnr's detailed timing report and list the K signals whose "
                          "endpoints miss the asked clock by the most (all endpoints counted)")
@@ -259,7 +276,7 @@ def main():
         seed_capacity()
         return
     if args.readme:
-        readme_table()
+        readme_table(rebuild_stale=not args.no_build)
         return
     print(f"{'label':<12} {'N':>3} {'fs':>5} {'M':>3} {'pool':>6} {'fclk':>6} {'seed':>4} {'fmax':>7} {'met':>4} {'LUTs':>6} "
           f"{'FFs':>6} {'DSPs':>8} {'BRAMs':>8}  critical path")

@@ -9,6 +9,7 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -323,3 +324,23 @@ def test_nextpnr_options_extra_replaces_placer_options():
     assert merged[merged.index("--placer-heap-critexp") + 1] == "2"
     assert merged[merged.index("--placer-heap-timingweight") + 1] == PLACER_OPTIONS[1]
     assert merged[-2:] == ["--router", "router2"]
+
+
+def test_the_readme_timing_table_heads_with_the_default_build():
+    """The README's timing table is bench/bench_bitstream.py's (between its
+    markers), its first row the build `make bitstream` makes: a change of the
+    defaults that leaves the table of the old ones fails here."""
+    import importlib.util
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("bench_bitstream", root / "bench" / "bench_bitstream.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    first_label = next(iter(bench.README_ROWS))
+    assert bench.LADDER[first_label][1] == {} and bench.command_of({}) == "make bitstream"
+    readme = (root / "README.md").read_text()
+    table = readme.split(bench.TABLE_BEGIN, 1)[1].split(bench.TABLE_END, 1)[0].strip().splitlines()
+    assert len(table) == 2 + len(bench.README_ROWS)
+    assert table[2].startswith(f"| {bench.build_name(BuildConfig())} | `make bitstream` |"), table[2]
+    c = BuildConfig().contract()
+    assert (c.channels, c.sample_rate_hz, c.slots, BuildConfig().clock_mhz, c.pool_words) == \
+        (64, 20_000_000, 8, 160.0, 65_536)

@@ -36,11 +36,12 @@ def test_fixed_point_worked_example():
 def test_tdm_engine_md_holds_the_slot_schedule_the_stages_make():
     """docs/tdm_engine.md's schedule table is the one the pipeline's stages'
     latencies give for the default build (rast.hdl.pipeline.timeline)."""
-    from rast.hdl.pipeline.timeline import TABLE_BEGIN, TABLE_END, default_contract, schedule_markdown
+    from rast.gateware.schedule_doc import default_contract
+    from rast.hdl.pipeline.timeline import TABLE_BEGIN, TABLE_END, schedule_markdown
     text = (DOCS / "tdm_engine.md").read_text()
     table = text.split(TABLE_BEGIN, 1)[1].split(TABLE_END, 1)[0].strip()
     assert table == schedule_markdown(default_contract()).strip(), \
-        "docs/tdm_engine.md's slot schedule is stale: python -m rast.hdl.pipeline.timeline"
+        "docs/tdm_engine.md's slot schedule is stale: python -m rast.gateware.schedule_doc"
 
 
 def test_the_slot_schedule_follows_the_contract():

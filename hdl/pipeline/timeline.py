@@ -18,7 +18,7 @@ from .window_tap import WindowTap, COMMON_OUT_CYCLES
 
 __all__ = ["slot_schedule", "schedule_markdown", "TABLE_BEGIN", "TABLE_END"]
 
-TABLE_BEGIN = "<!-- slot-schedule:begin (python -m rast.hdl.pipeline.timeline) -->"
+TABLE_BEGIN = "<!-- slot-schedule:begin (python -m rast.gateware.schedule_doc) -->"
 TABLE_END = "<!-- slot-schedule:end -->"
 
 
@@ -83,13 +83,3 @@ def schedule_markdown(contract: ReplayContract) -> str:
             f"{contract.interpolation} interpolation: clocks from a pipeline's period start\n\n"
             "| event | clock | slot 0 |\n| --- | ---: | ---: |\n")
     return head + "\n".join(f"| {what} | {formula} | {clock} |" for what, formula, clock in rows) + "\n"
-
-
-def default_contract() -> ReplayContract:
-    """The default build's contract (``rast.gateware.build.BuildConfig()``)."""
-    from rast.gateware.build import BuildConfig
-    return BuildConfig().contract()
-
-
-if __name__ == "__main__":
-    print(schedule_markdown(default_contract()))
