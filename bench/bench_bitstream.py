@@ -26,7 +26,6 @@ read. ``make timing-table`` runs it.
 
 import argparse
 import json
-import re
 import time
 from pathlib import Path
 
@@ -123,7 +122,6 @@ def table_row(label, seeds, reports) -> str:
     seed; None for a seed not built of the current netlist)."""
     what, kw = LADDER[label]
     cfg = BuildConfig(**kw)
-    c = cfg.contract()
     asked = cfg.clock_mhz
     built = [r for r in reports if r is not None]
     if not built:

@@ -43,16 +43,23 @@ class LoadError(Exception):
 
 
 def read_contract(bridge: HostBridge) -> ReplayContract:
-    """The replay block's parameters, read from its capability registers;
-    read again (after a resynchronisation) when the line damaged a reply,
-    RETRIES times."""
+    """The replay block's parameters, read from its capability registers
+    twice, alike both times: the protocol's frames carry no check, and a
+    damaged address or reply would otherwise size the load by another
+    register's value. Read again (after a resynchronisation) when the line
+    damaged a reply or the two differ, RETRIES times."""
     for attempt in range(RETRIES + 1):
         try:
-            return _read_contract(bridge)
+            first, second = _read_contract(bridge), _read_contract(bridge)
+            if first == second:
+                return first
+            if attempt == RETRIES:
+                raise LoadError("the capability registers read differently twice in a row: "
+                                "the line damages frames")
         except (LoadError, ProtocolError, ValueError):
             if attempt == RETRIES:
                 raise
-            bridge.resync()
+        bridge.resync()
 
 
 def _read_contract(bridge: HostBridge) -> ReplayContract:

@@ -110,6 +110,7 @@ def test_gateware_matches_a_reading_of_the_docs(interpolation, slots):
         assert (int(hi[n]), int(hq[n])) == doc.output(xi, xq, n), f"output {n}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("N, slots", [(3, 1), (5, 1), (5, 2), (7, 3)])
 def test_gain_write_shows_at_output_k(N, slots):
     """What the docs state: a GAIN write between inputs k - 1 and k shows from

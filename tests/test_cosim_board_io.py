@@ -23,6 +23,9 @@ from rast.model.contract.regmap import register_map
 from rast.sim import runner
 from rast.sim.board_io import BUILD_ARGS, board_io_sources
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 MODULE = "rast.sim.tb_board_io"
 BUILD = dict(channels=2, pool_words=16, max_delay=62, max_tap=6, interpolation="hold")
 SAMPLE_HZ = 20e6

@@ -18,6 +18,9 @@ from rast.sim import bulk, runner
 from rast.sim.scenario import TEST_CONTRACT
 from rast.sim.top import top_sources
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 
 #: One engine shape: the clocking is the wrapper's, the same whatever the DUT; M = 4 makes the
 #: cycle count differ from the sample count, so a lost cycle cannot hide in a sample.

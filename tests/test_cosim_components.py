@@ -12,6 +12,9 @@ from rast.hdl.cmult import ComplexMultiplier
 from rast.hdl.delay_line import DelayLine
 from rast.sim.pytest_support import SIMULATOR_PARAMS, cocotb_run, verilog_of
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 MODULE = "rast.sim.tb_components"
 
 

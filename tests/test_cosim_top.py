@@ -15,6 +15,9 @@ from rast.sim.pytest_support import SIMULATOR_PARAMS, cocotb_run
 from rast.sim.scenario import TEST_CONTRACT
 from rast.sim.top import top_sources
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 MODULE = "rast.sim.tb_top"
 
 #: (gap_thresh, stall_thresh) in 1/256: no gaps, some, many

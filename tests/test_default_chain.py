@@ -14,6 +14,9 @@ from rast.model.contract.datapath import ReplayModel
 from rast.model.contract.fixedpoint import ReplayContract, pack_iq
 from rast.model.contract.loadplan import free_region
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 

@@ -20,6 +20,7 @@ def test_model_case(case):
     runner.run(b, MODULE, name=case, testcase=case, quiet=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("top, message", [
     ("ecp5_unmodelled_dp16kd", "DATA_WIDTH_A=9 differs from DATA_WIDTH_B=18"),
     ("ecp5_unmodelled_mult", "HIGHSPEED_CLK=CLK0 is not modelled"),

@@ -256,6 +256,7 @@ def test_the_common_line_lies_in_a_block_the_pool_keeps_free():
         assert len(banks) == 40
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("channels, slots, banks, per_row", [(64, 10, 5, [2, 2, 2, 1]), (16, 2, 4, [2, 2, 2, 2])])
 def test_each_window_lies_in_a_block_of_its_own(channels, slots, banks, per_row):
     """With the pool's banks placed, the sites it leaves are blocks of
@@ -292,6 +293,7 @@ def test_each_window_lies_in_a_block_of_its_own(channels, slots, banks, per_row)
             assert min(s) < 26 <= max(s), (r, s)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("channels, slots", [(64, 10), (32, 10), (16, 2)])
 def test_an_sdram_build_places_its_delay_lines(channels, slots):
     """With the streams in SDRAM (no pool banks to place), the delay lines

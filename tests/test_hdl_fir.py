@@ -82,6 +82,7 @@ def test_fir_saturates_both_ways_like_the_model(slots):
         "the clipped U values do not reach the output"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed, slots", [(1, 1), (2, 3)])
 def test_fir_reloads_and_forced_switches_match_model(seed, slots):
     """Stream reloads into free pool space switching at the period boundary,

@@ -110,6 +110,7 @@ def test_random_against_model(channels, opts, valid, ready):
     check(dut, inits, xi, xq, valid=valid, ready=ready, name=f"N={channels} {opts} {valid} {ready}")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("slots", [1, 2, 3, 8, 10])
 def test_an_output_held_back_fills_the_fifo_and_loses_no_sample(slots):
     """``o.ready`` one clock in 100: slower than the input at every M and rarer than

@@ -153,7 +153,9 @@ def test_fixed_acp_count_and_a_missing_arp(n):
     got = run_acp(ScanGenerator(), acp, arp, end, mode_auto=False, log2=n.bit_length() - 1)
     want = track_clocks(sc.AcpTrack(n), acp, arp, end)
     assert got == want
-    assert any(lost for _, lost, _ in got) and got[-1][1] == 0
+    # lost from the ACP past N of the revolution without its ARP; cleared by the next
+    # ARP when there is one (the 512-ACP run's third revolution), else still up at the end
+    assert any(lost for _, lost, _ in got) and got[-1][1] == int(n == 4096)
 
 
 def test_learned_acp_count():

@@ -23,6 +23,9 @@ from rast.model.contract.hostproto import (HostBridge, BRIDGE_ID, ProtocolError,
                                            encode_read, encode_burst, group_writes, CMD_WRITE, ACK)
 from rast.model.contract.regmap import ID_VALUE, register_map, stream_crc32
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 DIV = 4            # cycles per UART bit in simulation (the bridge's minimum)
 TIMEOUT = 400      # bridge frame timeout, cycles
 KW = dict(channels=2, pool_words=64, max_delay=60, max_tap=14)

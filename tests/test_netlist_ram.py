@@ -6,6 +6,9 @@ import pytest
 from rast.sim import runner
 from rast.sim.netlist import ram_lockstep_sources
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 MODULE = "rast.sim.tb_netlist"
 # 1024 x 32: two DP16KD in x18 mode; 4096 x 8: two in x4 mode (the default build's delay lines);
 # 16384 x 8: eight in x1 mode (a group of the stream pool's bank)

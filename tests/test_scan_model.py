@@ -173,10 +173,11 @@ def test_free_beam_turns_at_the_scan_rate():
     fs, rpm = 20e6, 12.5
     n = np.array([0, 1, 10**6, 96 * 10**6 - 1, 96 * 10**6, 10**9])    # 96 M samples = one revolution
     codes = sc.free_beam_codes(30.0, rpm, fs, n)
-    expected = np.floor(np.mod(30 / 360 + rpm / 60 * n / fs, 1.0) * 65536)
+    start = round(30 / 360 * 65536) / 65536                           # the start is kept to a code
+    expected = np.floor(np.mod(start + rpm / 60 * n / fs, 1.0) * 65536 + 1e-9)
     assert np.array_equal(codes, expected.astype(np.int64))          # P = 96e6 exactly: no drift
     back = sc.free_beam_codes(30.0, -rpm, fs, n)                      # anticlockwise
-    np.testing.assert_array_equal(back, np.floor(np.mod(30 / 360 - rpm / 60 * n / fs, 1.0) * 65536 + 1e-9))
+    np.testing.assert_array_equal(back, np.floor(np.mod(start - rpm / 60 * n / fs, 1.0) * 65536 + 1e-9))
     with pytest.raises(ValueError, match="more than one azimuth code per RTS sample"):
         sc.free_beam_codes(0.0, 20_000.0, fs, n)
 

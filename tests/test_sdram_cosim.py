@@ -13,6 +13,9 @@ import pytest
 from rast.sim import runner
 from rast.sim.sdram_top import TOPLEVEL, sdram_top_sources
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 MODULE = "rast.sim.sdram_tb"
 
 

@@ -23,6 +23,9 @@ from rast.sim.pytest_support import cocotb_run
 from rast.sim.scenario import TEST_CONTRACT
 from rast.sim.top import sdram_engine_top_sources
 
+#: Cosimulations: left out of `make test-fast`, run by `make test` and CI.
+pytestmark = pytest.mark.slow
+
 MODULE = "rast.sim.tb_top"
 
 
