@@ -1,9 +1,30 @@
 # Shared pytest hooks: the cosimulation's --waves option (rast.sim.pytest_support).
 from rast.sim.pytest_support import pytest_addoption, pytest_configure  # noqa: F401
 
+#: The longest tests, longest first (seconds of one run on two busy cores,
+#: 2026-12-06): they start before everything else, so that the suite does not
+#: end with one worker waiting on a long test that started late.
+LONGEST_FIRST = (
+    "test_sdram_load_chain.py::",                                   # 266-461 s
+    "test_gateware_build.py::test_engine_bitstream",                # 109-159 s
+    "test_cosim_e2e.py::test_two_windmills_icarus",                 # 66-104 s
+    "test_cosim_top.py::test_top_time_multiplexed[icarus",          # 77-98 s
+    "test_hdl_formal.py::test_formal[delay_exact_deep]",            # 48-87 s
+    "test_load_bridge.py::test_load_manifest_end_to_end",           # 29-86 s
+    "test_default_chain.py::test_make_run_bitstream_load_chain",    # 58-81 s
+    "test_sdram_engine_cosim.py::test_64_realistic_turbines",       # 66-122 s
+    "test_cosim_netlist.py::test_netlist_top",                      # up to 116 s
+)
+
 
 def pytest_collection_modifyitems(config, items):
-    """The slow tests first (a bitstream build, long cosimulations, each minutes
-    long), so that the two workers end on short tests rather than one waiting
-    for the other's last long test; the order within each group is kept."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    """The longest tests first (LONGEST_FIRST), then the other slow ones (a
+    bitstream build, cosimulations), then the rest, so that the two workers
+    end on short tests rather than one waiting for the other's last long
+    test; the order within each group is kept."""
+    def rank(item):
+        for k, key in enumerate(LONGEST_FIRST):
+            if key in item.nodeid:
+                return (0, k)
+        return (1 if item.get_closest_marker("slow") else 2, 0)
+    items.sort(key=rank)
