@@ -212,6 +212,9 @@ def _preview_ppi(args, farm) -> int:
     from rast.model.radar.ppi import dwell_image, save_ppi
 
     scan = farm.scan
+    for given, option in ((args.zoom, "--zoom"), (args.range_doppler, "--range-doppler"), (args.overlap, "--overlap")):
+        if given:
+            raise UserError(f"{option} is a spectrogram option; --ppi draws dwells of the beam")
     if not scan.turning:
         raise UserError(f"--ppi draws a turning antenna's revolution, but {args.config} stares "
                         "(scan_mode = \"stare\"): set scan_mode = \"free\" or \"acp\" and scan_rpm")
@@ -235,7 +238,7 @@ def _preview_ppi(args, farm) -> int:
     try:
         with atomic_file(out) as png:
             save_ppi(png, image, edges, turbines=[(w.azimuth_deg, w.range_km) for w in farm.windmills],
-                     dynamic_range_db=min(args.dynamic_range, 80.0), floor_db=scene.noise_dbfs - 5,
+                     dynamic_range_db=args.dynamic_range, floor_db=scene.noise_dbfs - 5,
                      title=title)
     except OSError as error:
         raise UserError(f"cannot write {out}: {error.strerror or error}") from None
@@ -369,7 +372,8 @@ def build_parser() -> argparse.ArgumentParser:
                    default=0.0,
                    help="fraction of a CPI shared by consecutive frames (default 0, as a radar)")
     p.add_argument("--dynamic-range", type=_number("a positive number of dB"), default=90.0,
-                   help="colour scale depth in dB (default 90: spurs down to the SFDR a replay should reach)")
+                   help="colour scale depth in dB (default 90: spurs down to the SFDR a replay should reach; "
+                        "with --ppi, down to the noise at most)")
     p.add_argument("--zoom", type=positive_hz, default=None, metavar="HZ",
                    help="draw only Doppler ±HZ (default: the whole band ±PRF/2)")
     p.add_argument("--replay", action="store_true",

@@ -261,6 +261,8 @@ def test_preview_ppi_refuses_a_staring_config(tmp_path, capsys):
     assert "stares" in capsys.readouterr().err and not out.exists()
     assert main(["preview", str(EXAMPLES / "asr_scan.toml"), "--mti", "2", "--out", str(out)]) == 2
     assert "--mti is a PPI option" in capsys.readouterr().err and not out.exists()
+    assert main(["preview", str(EXAMPLES / "asr_scan.toml"), "--ppi", "--zoom", "100", "--out", str(out)]) == 2
+    assert "--zoom is a spectrogram option" in capsys.readouterr().err and not out.exists()
 
 
 def test_example_differs_from_the_atc_example_only_by_its_scan():

@@ -87,13 +87,13 @@ def _draw(ax, image: DwellImage, db, gate_edges_km, low, top, turbines):
 def save_ppi(path, image: DwellImage, gate_edges_km: np.ndarray, *, turbines=(), dynamic_range_db: float = 60.0,
              floor_db: float | None = None, title: str = "") -> None:
     """Draw ``image`` on polar axes (north up, clockwise): colour the dwell's
-    mean power in dB FS over ``dynamic_range_db`` below the strongest cell (or
-    from ``floor_db``); ``turbines``: (azimuth_deg, range_km) pairs marked
+    mean power in dB FS over ``dynamic_range_db`` below the strongest cell,
+    not below ``floor_db`` when given (the noise); ``turbines``: (azimuth_deg, range_km) pairs marked
     with a small cross. When the turbines lie within 90° of azimuth, a second
     panel zooms on their sector (three beamwidths either side) and ranges."""
     db = image.power_db()
     top = np.nanmax(db) if np.isfinite(db).any() else 0.0
-    low = top - dynamic_range_db if floor_db is None else floor_db
+    low = top - dynamic_range_db if floor_db is None else max(floor_db, top - dynamic_range_db)
     turbines = list(turbines)
     sector = None
     if turbines:
