@@ -22,7 +22,7 @@ SCAN_SETTINGS = data.StructLayout({
 ACP_MIN_CLOCKS = 16
 
 _COUNT_BITS = 18            # ACPs since the ARP: past N when an ARP is missed
-_Q_BITS = 9                 # 2**16 // N for N >= ACP_MIN_LEARN = 256
+_Q_BITS = (AZIMUTH_CODES // ACP_MIN_LEARN).bit_length()   # 2**16 // N for N >= ACP_MIN_LEARN
 
 
 class ScanGenerator(wiring.Component):

@@ -11,6 +11,7 @@ from rast.model.contract.fixedpoint import GAIN_WIDTH
 from rast.model.contract.scan import (AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_ENTRIES, PATTERN_WIDTH,
                                       PATTERN_FRAC, PATTERN_ONE, MAX_PATTERN_SHIFT)
 from ..ecp5_primitives import RegisteredMultiplier
+from ..register_chain import delayed
 
 __all__ = ["PatternGain"]
 
@@ -48,19 +49,10 @@ class PatternGain(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        # the gain and the scan flag travel beside the stages
-        def follow(value, name, n):
-            out = value
-            for k in range(n):
-                nxt = Signal.like(value, name=f"{name}{k + 1}")
-                m.d.sync += nxt.eq(out)
-                out = nxt
-            return out
-
         offset = Signal(AZIMUTH_BITS)
         m.d.sync += offset.eq(self.beam - self.azimuth)                               # 1
         index, inside = Signal(PATTERN_INDEX_BITS), Signal()
-        shift = follow(self.shift, "shift", 1)
+        shift = delayed(m, self.shift, 1, "shift")
         with m.Switch(shift):                                                         # 2
             for k in range(MAX_PATTERN_SHIFT + 1):
                 with m.Case(k):
@@ -75,12 +67,12 @@ class PatternGain(wiring.Component):
         rp = table.read_port(transparent_for=())
         m.d.comb += [wp.en.eq(self.w_en), wp.addr.eq(self.w_addr), wp.data.eq(self.w_data),
                      rp.addr.eq(index), rp.en.eq(1)]                                  # 3: the read
-        inside3 = follow(inside, "inside", 1)
-        scan3, floor3 = follow(self.scan, "scan", 3), follow(self.floor, "floor", 3)
+        inside3 = delayed(m, inside, 1, "inside")
+        scan3, floor3 = delayed(m, self.scan, 3, "scan"), delayed(m, self.floor, 3, "floor")
         word = Signal(PATTERN_WIDTH + 1)
         m.d.sync += word.eq(Mux(scan3, Mux(inside3, rp.data, floor3), PATTERN_ONE))  # 4
         m.submodules.mul = mul = RegisteredMultiplier(GAIN_WIDTH + 1, PATTERN_WIDTH + 1, input_reg=True)
-        gain4 = follow(self.gain, "gain", 4)
+        gain4 = delayed(m, self.gain, 4, "gain", data=True)
         m.d.comb += [mul.en.eq(1), mul.a.eq(gain4), mul.b.eq(word)]                  # 5, 6
         rounded = Signal(GAIN_WIDTH)
         m.d.sync += rounded.eq((mul.o + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)    # 7

@@ -100,9 +100,8 @@ ACP_UNLEARNED = AZIMUTH_CODES
 class AcpTrack:
     """The beam following the radar, step by step (the contract's rule above).
 
-    ``acp_per_rev``: N, or "auto". :meth:`run` takes the steps' ACP and ARP
-    flags (one per step) and returns each step's code as seen by the step:
-    after the step's own ARP and ACP."""
+    ``acp_per_rev``: N, or "auto". :meth:`event` takes one step's ARP and
+    ACP (the ARP first); :attr:`code` is the code after them."""
 
     def __init__(self, acp_per_rev):
         self.auto = acp_per_rev == "auto"
@@ -128,19 +127,8 @@ class AcpTrack:
 
     @property
     def code(self) -> int:
-        return (self.count * AZIMUTH_CODES // self.n) % AZIMUTH_CODES
+        return int(acp_beam_code(self.count, self.n))
 
-    def run(self, acp, arp) -> np.ndarray:
-        acp, arp = np.asarray(acp, dtype=bool), np.asarray(arp, dtype=bool)
-        codes = np.zeros(acp.size, dtype=np.int64)
-        events = np.flatnonzero(acp | arp)
-        last = 0
-        for k in events:
-            codes[last:k] = self.code
-            self.event(bool(arp[k]), bool(acp[k]))
-            last = k
-        codes[last:] = self.code
-        return codes
 
 
 def span_deg(shift: int) -> float:
@@ -167,9 +155,6 @@ class PatternWords:
         self.words = np.asarray(words, dtype=np.int64)
         self.floor = int(floor)
         self.shift = int(shift)
-
-    def step_deg(self) -> float:
-        return (1 << self.shift) * 360.0 / AZIMUTH_CODES
 
 
 def _amplitude_word(gain_db) -> np.ndarray:
