@@ -163,6 +163,7 @@ class BuildConfig:
     seed: int = 1
     extra_nextpnr: list = field(default_factory=list)
     pool: str = "bram"
+    scan: bool = False                 # the antenna scan built in (ACP/ARP pins, AZIMUTH, the pattern)
 
     def __post_init__(self):
         if not isinstance(self.pool, str) or self.pool not in POOL_BACKENDS:
@@ -191,7 +192,8 @@ class BuildConfig:
     def replay_kwargs(self):
         return dict(channels=self.channels, slots=self.slots, pool_words=self.pool_words,
                     max_delay=self.max_delay, max_tap=self.max_tap,
-                    interpolation=self.interpolation, cmult_form=self.cmult_form, pool=self.pool)
+                    interpolation=self.interpolation, cmult_form=self.cmult_form, pool=self.pool,
+                    scan=self.scan)
 
 
 def tool_env(env=None):

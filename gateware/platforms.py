@@ -20,6 +20,8 @@ ULX3S_RTS_PINS = {
     "dac_data": "14+ 14- 15+ 15- 16+ 16- 17+ 17- 18+ 18- 19+ 19- 20+ 20- 21+ 21-".split(),
     "dac_clk": "22+",
     "dac_iq": "22-",
+    "acp": "23+",
+    "arp": "23-",
 }
 
 #: The default pin map of the plain-device target: the ULX3S's balls (caBGA381).
@@ -40,7 +42,7 @@ def _ulx3s_ball(conn_pin):
 def pin_table():
     """Rows ``(signal, header pin, ball)`` of the ULX3S RTS pin map."""
     rows = []
-    for name in ("adc_data", "adc_clk", "dac_data", "dac_clk", "dac_iq"):
+    for name in ("adc_data", "adc_clk", "dac_data", "dac_clk", "dac_iq", "acp", "arp"):
         pins = ULX3S_RTS_PINS[name]
         if isinstance(pins, list):
             for k, p in enumerate(pins):
@@ -52,10 +54,13 @@ def pin_table():
 
 def rts_resources(pins=ULX3S_RTS_PINS, conn=("gpio", 0), io_type="LVCMOS33"):
     """The ``rts_adc`` and ``rts_dac`` resources over ``pins`` (connector pins when
-    ``conn`` is given, balls when it is ``None``)."""
+    ``conn`` is given, balls when it is ``None``), and ``rts_scan`` (the
+    radar's ``acp`` and ``arp`` inputs) where ``pins`` names them."""
     a = Attrs(IO_TYPE=io_type)
     drive = Attrs(IO_TYPE=io_type, SLEWRATE="FAST", DRIVE="8")
-    return [
+    scan = [Resource("rts_scan", 0, Subsignal("acp", Pins(pins["acp"], dir="i", conn=conn), a),
+                     Subsignal("arp", Pins(pins["arp"], dir="i", conn=conn), a))] if "acp" in pins else []
+    return scan + [
         Resource("rts_adc", 0,
                  Subsignal("data", Pins(" ".join(pins["adc_data"]), dir="i", conn=conn), a),
                  Subsignal("clk", Pins(pins["adc_clk"], dir="o", conn=conn), drive)),
@@ -111,7 +116,8 @@ def make_platform(board="ulx3s-85f", *, device=None, package=None, speed=None, p
     For a plain device, ``pinmap`` (a JSON file or dict) names the balls of
     ``clk`` (with ``clk_mhz``), ``uart_rx``, ``uart_tx``, ``adc_data`` (16),
     ``adc_clk``, ``dac_data`` (16), ``dac_clk``, ``dac_iq`` and optionally
-    ``leds`` and ``io_type``; without it the ULX3S balls are used (caBGA381).
+    ``acp`` and ``arp`` (a build with the antenna scan needs both), ``leds``
+    and ``io_type``; without it the ULX3S balls are used (caBGA381).
     """
     if board is not None:
         if board not in BOARDS:
@@ -149,7 +155,9 @@ def make_platform(board="ulx3s-85f", *, device=None, package=None, speed=None, p
     for k in ("adc_data", "dac_data"):
         if not (isinstance(pm[k], list) and len(pm[k]) == 16 and all(isinstance(b, str) for b in pm[k])):
             raise ValueError(f"{where}: entry {k} must list 16 balls, not {pm[k]!r}")
-    for k in ("clk", "uart_rx", "uart_tx", "adc_clk", "dac_clk", "dac_iq", "io_type"):
+    if ("acp" in pm) != ("arp" in pm):
+        raise ValueError(f"{where}: entries acp and arp go together")
+    for k in ("clk", "uart_rx", "uart_tx", "adc_clk", "dac_clk", "dac_iq", "acp", "arp", "io_type"):
         if k in pm and not isinstance(pm[k], str):
             raise ValueError(f"{where}: entry {k} must be a ball name, not {pm[k]!r}")
     if not isinstance(pm.get("leds", []), list) or not all(isinstance(b, str) for b in pm.get("leds", [])):

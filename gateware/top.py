@@ -107,7 +107,7 @@ class ReplaySystem(wiring.Component):
             "i": In(stream.Signature(IQ(INPUT_WIDTH))),
             "o": Out(stream.Signature(IQ(OUTPUT_WIDTH))),
             "overflow": Out(1),
-            **_sdram_members(self.replay),
+            **_passed_members(self.replay),
         })
 
     def elaborate(self, platform):
@@ -119,21 +119,25 @@ class ReplaySystem(wiring.Component):
         wiring.connect(m, replay.o, wiring.flipped(self.o))
         m.d.comb += [bridge.rx.eq(self.rx), self.tx.eq(bridge.tx),
                      self.overflow.eq(replay.overflow)]
-        _connect_sdram(m, replay, self)
+        _connect_passed(m, replay, self)
         return m
 
 
-def _sdram_members(inner):
-    """``native`` and ``pool_error`` of ``inner`` (a component), where it has them."""
+def _passed_members(inner):
+    """``native`` and ``pool_error`` of ``inner`` (a component), and its
+    ``acp`` and ``arp`` (the antenna scan), where it has them."""
     sig = inner.signature.members
-    return {name: sig[name] for name in ("native", "pool_error") if name in sig}
+    return {name: sig[name] for name in ("native", "pool_error", "acp", "arp") if name in sig}
 
 
-def _connect_sdram(m, inner, outer):
-    """Pass ``inner``'s ``native`` and ``pool_error`` up to ``outer``'s."""
+def _connect_passed(m, inner, outer):
+    """Pass ``inner``'s ``native`` and ``pool_error`` up to ``outer``'s, and
+    ``outer``'s ``acp`` and ``arp`` down to ``inner``'s."""
     if "native" in outer.signature.members:
         wiring.connect(m, inner.native, wiring.flipped(outer.native))
         m.d.comb += outer.pool_error.eq(inner.pool_error)
+    if "acp" in outer.signature.members:
+        m.d.comb += [inner.acp.eq(outer.acp), inner.arp.eq(outer.arp)]
 
 
 class SampleIO(wiring.Component):
@@ -340,7 +344,7 @@ class BoardCore(wiring.Component):
         self.system = ReplaySystem(clk_hz, baud, divisor=divisor, timeout=timeout, **replay_kwargs)
         self.sample_io = SampleIO(adc_port, dac_port, slots)
         super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "overflow": Out(1),
-                          **_sdram_members(self.system)})
+                          **_passed_members(self.system)})
 
     def elaborate(self, platform):
         m = Module()
@@ -350,7 +354,7 @@ class BoardCore(wiring.Component):
         wiring.connect(m, sys_.o, sio.dac)
         m.d.comb += [sys_.rx.eq(self.rx), self.tx.eq(sys_.tx), self.overflow.eq(sys_.overflow),
                      sio.slot.eq(sys_.replay.slot)]
-        _connect_sdram(m, sys_, self)
+        _connect_passed(m, sys_, self)
         return m
 
 
@@ -412,6 +416,12 @@ class BoardTop(Elaboratable):
 
         uart = platform.request("uart", 0)
         m.d.comb += [core.rx.eq(uart.rx.i), uart.tx.o.eq(core.tx)]
+        if self.replay_kwargs.get("scan"):
+            if not any(r[0] == "rts_scan" for r in platform.resources):
+                raise ValueError(f"The antenna scan needs the radar's ACP and ARP pins (rts_scan); "
+                                 f"{type(platform).__name__} has none (pin map keys acp, arp)")
+            pins = platform.request("rts_scan", 0)
+            m.d.comb += [core.acp.eq(pins.acp.i), core.arp.eq(pins.arp.i)]
 
         # Status LEDs, where the board has them: overflow (sticky), PLL lock.
         leds = [r for r in platform.resources if r[0] == "led"]

@@ -19,6 +19,7 @@ from .pipeline.interpolator import LinearStep
 from .pipeline.fir_mac import FirMac
 from .pipeline.window_tap import WindowTap, COMMON_OUT_CYCLES
 from .pipeline.product import ProductSum
+from .pipeline.pattern_gain import PatternGain, BEAM_LAYOUT, PATTERN_LAYOUT, BEAM_CLOCK, GAIN_INPUT_DELAY
 
 __all__ = ["ChannelPipeline", "SlotInit", "fetch_tag_layout", "accept_clock", "COMMON_OUT_CYCLES",
            "MIRROR_LAG", "REQUEST_CYCLES"]
@@ -111,6 +112,10 @@ class ChannelPipeline(wiring.Component):
         SDRAM pool only (0 otherwise): a read that matters found its cache
         word not yet arrived, ``ArrivalCheck.LATENCY`` clocks after the read's
         address register.
+    beam : In(BEAM_LAYOUT), pattern : In(PATTERN_LAYOUT), with the antenna scan
+        The step's beam, from the period's clock BEAM_CLOCK for M clocks; the
+        pattern's settings and table writes. Each slot's gain is then its
+        GAIN times the pattern at (beam - AZIMUTH) (:class:`PatternGain`).
     """
 
     def __init__(self, contract, index, slot_inits, regs_layout, values_layout, *, window_sites=None,
@@ -132,7 +137,7 @@ class ChannelPipeline(wiring.Component):
         self._window = WindowTap(contract, sites=window_sites, win_data_lag=win_data_lag)
         self._select = RegisterSelect(contract, regs_layout, values_layout)
         self._state = SlotState(contract, slot_inits, self._select.rsel.shape())
-        self._product = ProductSum(contract)
+        self._product = ProductSum(contract, GAIN_INPUT_DELAY + PatternGain.latency if contract.scan else 0)
         super().__init__({
             "accept": In(1),
             "regs": In(regs_layout).array(M),
@@ -148,6 +153,7 @@ class ChannelPipeline(wiring.Component):
             "fill_data": In(2 * STREAM_WIDTH),
             "pending": Out(1).array(M),
             "bank": Out(1).array(M),
+            **({"beam": In(BEAM_LAYOUT), "pattern": In(PATTERN_LAYOUT)} if contract.scan else {}),
             "sum": Out(IQ(contract.sum_width)),
             "underflow": Out(1),
         })
@@ -241,9 +247,24 @@ class ChannelPipeline(wiring.Component):
         m.submodules.product = prod = self._product
         geff = Signal(rg.gain.shape(), name="geff")
         m.d.comb += [geff.eq(Mux(rg.enable, rg.gain, 0)),
-                     prod.a.eq(win.o), prod.b.eq(step.word), prod.b2.eq(step.word2), prod.gain.eq(geff),
+                     prod.a.eq(win.o), prod.b.eq(step.word), prod.b2.eq(step.word2),
+                     prod.gain.eq(self._pattern_gain(m, geff, rg) if c.scan else geff),
                      prod.vslot.eq(sch.vslot), self.sum.eq(prod.sum)]
         return m
+
+    def _pattern_gain(self, m, geff, rg):
+        """The visiting slot's gain times the pattern at the step's beam less
+        its AZIMUTH, GAIN_INPUT_DELAY + PatternGain.latency clocks after the
+        visit (the product stage waits that long for it)."""
+        V = visit_cycles(self._c.slots)
+        m.submodules.pattern_gain = pg = PatternGain()
+        beam = delayed(m, self.beam, V + GAIN_INPUT_DELAY - BEAM_CLOCK, "beam", data=True)
+        p = self.pattern
+        m.d.comb += [pg.gain.eq(delayed(m, geff, GAIN_INPUT_DELAY, "pg_gain", data=True)),
+                     pg.azimuth.eq(delayed(m, rg.azimuth, GAIN_INPUT_DELAY, "pg_azimuth", data=True)),
+                     pg.beam.eq(beam.code), pg.scan.eq(beam.on), pg.shift.eq(p.shift), pg.floor.eq(p.floor),
+                     pg.w_en.eq(p.w_en), pg.w_addr.eq(p.w_addr), pg.w_data.eq(p.w_data)]
+        return pg.o
 
     def _arrival_check(self, m, cache, state, reads_matter, rg):
         """SDRAM pool: a read that matters (a playing channel's step, the FIR's

@@ -7,15 +7,17 @@ from amaranth.lib import wiring, data
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from rast.model.contract.regmap import RegisterMap, CRC32_POLY, STORED, CHANNEL_BASE, CHANNEL_STRIDE
+from rast.model.contract.regmap import RegisterMap, CRC32_POLY, STORED, SCAN_RESTART
 from rast.model.contract.fixedpoint import STREAM_WIDTH, REGISTER_STAGING
+from rast.model.contract.scan import AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_WIDTH
 from .ecp5_primitives import kept_register
+from .scan_generator import SCAN_SETTINGS
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
 PREDECODE_BITS = 4
 
 __all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "slot_values_layout", "SLOT_RAM_FIELDS",
-           "crc32_step", "CRC_CLOCKS", "MATCH_STAGES"]
+           "slot_ram_fields", "crc32_step", "CRC_CLOCKS", "MATCH_STAGES"]
 
 #: The per-channel values the engine reads by slot from a distributed RAM per
 #: group of channels (a pipeline's): name in ``slot_values_layout`` ->
@@ -23,14 +25,25 @@ __all__ = ["BusSignature", "RegisterFile", "channel_regs_layout", "slot_values_l
 SLOT_RAM_FIELDS = {"gain": ("GAIN", "gain"), "length": ("LENGTH", "length"),
                    "increment": ("PHASE_INC", "inc"), "base": ("BASE", "base")}
 
-#: Every per-channel field the host writes that is kept in its group's
-#: distributed RAMs (and in no flip-flop): the engine's, and the CRC the SWAP
-#: check compares.
-RAM_FIELDS = {**SLOT_RAM_FIELDS, "crc": ("CRC", "crc")}
-#: The per-channel fields read back from those RAMs: the readable ones, and
-#: PLAYED (a RAM of the group's too, written by a SWAP taken).
-READ_BACK_RAM = {**{name: rf for name, rf in RAM_FIELDS.items() if rf != ("CRC", "crc")},
-                 "played": ("PLAYED", "crc")}
+
+
+def slot_ram_fields(rmap: RegisterMap) -> dict:
+    """SLOT_RAM_FIELDS, and AZIMUTH's where the block has the antenna scan."""
+    return {**SLOT_RAM_FIELDS, **({"azimuth": ("AZIMUTH", "azimuth")} if rmap.contract.scan else {})}
+
+
+def ram_fields(rmap: RegisterMap) -> dict:
+    """Every per-channel field the host writes that is kept in its group's
+    distributed RAMs (and in no flip-flop): the engine's, and the CRC the SWAP
+    check compares."""
+    return {**slot_ram_fields(rmap), "crc": ("CRC", "crc")}
+
+
+def read_back_ram(rmap: RegisterMap) -> dict:
+    """The per-channel fields read back from those RAMs: the readable ones, and
+    PLAYED (a RAM of the group's too, written by a SWAP taken)."""
+    return {**{name: rf for name, rf in ram_fields(rmap).items() if rf != ("CRC", "crc")},
+            "played": ("PLAYED", "crc")}
 
 
 def crc32_step(crc, bits):
@@ -120,9 +133,9 @@ def channel_regs_layout(rmap: RegisterMap) -> data.StructLayout:
 
 def slot_values_layout(rmap: RegisterMap) -> data.StructLayout:
     """What the engine reads of one channel's registers from its group's
-    distributed RAM, by slot (``SLOT_RAM_FIELDS``)."""
+    distributed RAM, by slot (``slot_ram_fields``)."""
     return data.StructLayout({name: rmap.reg(reg, 0).field(field).width
-                              for name, (reg, field) in SLOT_RAM_FIELDS.items()})
+                              for name, (reg, field) in slot_ram_fields(rmap).items()})
 
 
 class RegisterFile(wiring.Component):
@@ -153,6 +166,9 @@ class RegisterFile(wiring.Component):
     rmap : RegisterMap
     mirror_delay, status_delay : int
         Cycles from a taken access to its sampling points (see above).
+    scan_delay : int
+        With the antenna scan: cycles from a taken read to the sampling of
+        the beam's generator (SCAN_STATUS, ACP_PER_REV, STATUS.arp_lost).
     groups : list of lists of channels, optional
         Channels whose registers sit together (a pipeline's; all channels if
         not given): each group takes a registered copy of a write's data of
@@ -190,10 +206,18 @@ class RegisterFile(wiring.Component):
         The sticky overflow flag.
     underflow_set : In(1), underflow : Out(1)
         The same for STATUS.underflow (a stream word read before it arrived).
+    scan : Out(SCAN_SETTINGS), scan_restart : Out(1), with the antenna scan
+        The beam's settings (stored) and SCAN_CTRL.restart in the clock its
+        write lands.
+    pattern_shift, pattern_floor : Out, pattern_w_en, pattern_w_addr, pattern_w_data : Out
+        PATTERN's fields; the table's write, registered (the clock after a
+        PATTERN_DATA write lands).
+    scan_beam, scan_lost, scan_learned, scan_per_rev : In
+        The generator's state, read back in SCAN_STATUS, STATUS and ACP_PER_REV.
     """
 
     def __init__(self, rmap: RegisterMap, *, mirror_delay=1, status_delay=1, groups=None,
-                 slots=None):
+                 slots=None, scan_delay=REGISTER_STAGING):
         if not isinstance(rmap, RegisterMap):
             raise TypeError(f"Register map must be a RegisterMap, not {rmap!r}")
         N = rmap.contract.channels
@@ -210,11 +234,11 @@ class RegisterFile(wiring.Component):
             raise ValueError(f"Slots must be an integer of at least the longest group's {longest} "
                              f"channels, not {slots!r}")
         self._slots = slots
-        for name, v in (("Mirror delay", mirror_delay), ("Status delay", status_delay)):
+        for name, v in (("Mirror delay", mirror_delay), ("Status delay", status_delay), ("Scan delay", scan_delay)):
             if not isinstance(v, int) or isinstance(v, bool) or v < 0:
                 raise ValueError(f"{name} must be an integer of at least 0, not {v!r}")
         self._rmap = rmap
-        self._mirror_delay, self._status_delay = mirror_delay, status_delay
+        self._mirror_delay, self._status_delay, self._scan_delay = mirror_delay, status_delay, scan_delay
         c = rmap.contract
         N = c.channels
         self._cw = rmap.reg("COMMON_DELAY").field("delay").width
@@ -237,6 +261,12 @@ class RegisterFile(wiring.Component):
             **({"check_start": Out(1), "check_addr": Out(c.pool_address_width),
                 "check_words": Out(c.length_width), "check_busy": In(1), "check_crc": In(32)}
                if rmap.has("POOL_CHECK") else {}),
+            **({"scan": Out(SCAN_SETTINGS), "scan_restart": Out(1),
+                "pattern_shift": Out(3), "pattern_floor": Out(PATTERN_WIDTH),
+                "pattern_w_en": Out(1), "pattern_w_addr": Out(PATTERN_INDEX_BITS),
+                "pattern_w_data": Out(PATTERN_WIDTH),
+                "scan_beam": In(AZIMUTH_BITS), "scan_lost": In(1), "scan_learned": In(1),
+                "scan_per_rev": In(17)} if c.scan else {}),
         })
 
     @property
@@ -249,7 +279,7 @@ class RegisterFile(wiring.Component):
     @property
     def read_latency(self) -> int:
         """Cycles from a taken read to ``r_valid``."""
-        return max(REGISTER_STAGING, self._mirror_delay, self._status_delay) + self.SELECT_LEVELS + 1
+        return max(REGISTER_STAGING, self._mirror_delay, self._status_delay, self._scan_delay) + self.SELECT_LEVELS + 1
 
     def elaborate(self, platform):
         m = Module()
@@ -259,7 +289,7 @@ class RegisterFile(wiring.Component):
                             N=self._rmap.contract.channels)
         for stage in (self._staging, self._landing, self._storage_writes, self._stream_run, self._slot_rams,
                       self._swap_check, self._commands, self._common_delay, self._pool_write, self._status,
-                      self._read_back):
+                      self._scan, self._read_back):
             stage(env)
         return m
 
@@ -300,8 +330,8 @@ class RegisterFile(wiring.Component):
                 chain.append(nxt)
             return chain[k]
 
-        in_ram = {(reg, field) for reg, field in RAM_FIELDS.values()}
-        storage = {}          # (reg name, channel, field name) -> Signal; RAM_FIELDS are in RAMs
+        in_ram = {(reg, field) for reg, field in ram_fields(rmap).values()}
+        storage = {}          # (reg name, channel, field name) -> Signal; ram_fields are in RAMs
         for r in rmap.registers:
             for f in r.fields:
                 if f.access in STORED and not (r.channel is not None and (r.name, f.name) in in_ram):
@@ -478,23 +508,13 @@ class RegisterFile(wiring.Component):
         # build's late endpoints (run_count -> run_count, 6.5 ns)
         run_full = Signal(name="run_full")
         count_max = (1 << c.length_width) - 1
-        # The landing clock loads the word into ``crc_rest``; the CRC then
-        # takes CRC_CLOCKS clocks, 32 / CRC_CLOCKS bits a clock.
-        k = CRC_CLOCKS
-        b = 32 // k
-        crc_rest = Signal(32, name="run_crc_rest")
-        crc_left = Signal(range(k + 1), name="run_crc_left")
         start_addr = rmap.reg("STREAM_ADDR").addr
         with m.If(strobe[start_addr]):
-            m.d.sync += [run_start.eq(land_field[(start_addr, "addr")]),
-                         run_count.eq(0), run_full.eq(0), run_crc.eq(0xFFFFFFFF)]
+            m.d.sync += [run_start.eq(land_field[(start_addr, "addr")]), run_count.eq(0), run_full.eq(0)]
         with m.Elif(data_w):
             m.d.sync += [run_count.eq(run_count + ~run_full),
                          run_full.eq(run_full | (run_count == count_max - 1))]
-            m.d.sync += [crc_rest.eq(land_data[None]), crc_left.eq(k)]
-        with m.Elif(crc_left != 0):
-            m.d.sync += [run_crc.eq(crc32_step(run_crc, crc_rest[:b])),
-                         crc_rest.eq(crc_rest[b:]), crc_left.eq(crc_left - 1)]
+        _crc_run(m, run_crc, strobe[start_addr], data_w, land_data[None], "run_crc")
         env.__dict__.update(addr=addr, data_w=data_w, run_start=run_start, run_count=run_count,
                           run_crc=run_crc)
 
@@ -519,19 +539,19 @@ class RegisterFile(wiring.Component):
         S = self._slots
         D = max(2, S)            # the RAMs' depth: no zero-width address at one slot
         slot_bits = (D - 1).bit_length()
-        stride_bits = CHANNEL_STRIDE.bit_length() - 1
+        base, stride = rmap.channel_base, rmap.channel_stride
+        stride_bits = stride.bit_length() - 1
         slot_of = [0] * (1 << (len(bus.addr) - stride_bits))      # by address >> stride_bits
         for members in self._groups:
             for s, ch in enumerate(members):
-                slot_of[(CHANNEL_BASE + CHANNEL_STRIDE * ch) >> stride_bits] = s
+                slot_of[(base + stride * ch) >> stride_bits] = s
 
         def slot_at(op):
             return Array(Const(s, slot_bits) for s in slot_of)[op.addr[stride_bits:]]
 
         def ram_range(members):
             """The addresses of the channel registers of ``members``."""
-            return (CHANNEL_BASE + CHANNEL_STRIDE * min(members),
-                    CHANNEL_BASE + CHANNEL_STRIDE * (max(members) + 1) - 1)
+            return (base + stride * min(members), base + stride * (max(members) + 1) - 1)
 
         def ram_register(op, members, offset):
             """The access ``op`` is to the register at ``offset`` of one of ``members``."""
@@ -582,8 +602,8 @@ class RegisterFile(wiring.Component):
             w_onehot_in = Mux(in_group, pre_onehot, 0)      # the landing slot, one-hot, a clock ahead
             landing_slot.append((w_slot, w_onehot_in))
             reads, fresh_of = {}, {}
-            for name, (reg_name, field_name) in RAM_FIELDS.items():
-                offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
+            for name, (reg_name, field_name) in ram_fields(rmap).items():
+                offset = rmap.reg(reg_name, 0).addr - base
                 width = rmap.reg(reg_name, 0).field(field_name).width
                 w_en_in = in_group & decoded_bit(f"off{offset}", lambda op: op.addr[:stride_bits] == offset, g)
                 land = land_field[(rmap.reg(reg_name, members[0]).addr, field_name)]
@@ -591,7 +611,7 @@ class RegisterFile(wiring.Component):
                     g, members, name, reg_name, field_name, w_en_in, w_slot, w_onehot_in, land)
                 fresh_of[name] = fresh
                 reads[name] = (raw_read, fresh, reset_of)
-                if name in SLOT_RAM_FIELDS:
+                if name in slot_ram_fields(rmap):
                     # the engine's: whether the slot read next is unwritten
                     # since reset, and its reset value, a clock ahead, so that
                     # the read's clock holds only the RAM and one selection
@@ -632,7 +652,7 @@ class RegisterFile(wiring.Component):
         # registered levels, off the path into the command. A slot whose
         # BASE, LENGTH or CRC is unwritten since reset does not match (the
         # RAMs are not reset; the model: ReplayModel.write).
-        ctrl_offset = rmap.reg("CTRL", 0).addr - CHANNEL_BASE
+        ctrl_offset = rmap.reg("CTRL", 0).addr - rmap.channel_base
 
         def equal_parts(a, b, k=8):
             return Cat(*(a[i:i + k] == b[i:i + k] for i in range(0, len(a), k)))
@@ -757,6 +777,31 @@ class RegisterFile(wiring.Component):
         m.d.sync += self.underflow.eq(Mux(clear, 0, self.underflow) | self.underflow_set)
         env.__dict__.update(flag=flag)
 
+    def _scan(self, env):
+        """The antenna scan's settings, its restart and the pattern table's write
+        path with its CRC (a block built with the scan)."""
+        m, rmap, storage, strobe, land_data = env.m, env.rmap, env.storage, env.strobe, env.land_data
+        if not rmap.contract.scan:
+            return
+        ctrl = rmap.reg("SCAN_CTRL")
+        for name in ("mode", "anticlockwise", "auto", "acp_log2"):
+            m.d.comb += self.scan[name].eq(storage[("SCAN_CTRL", None, name)])
+        m.d.comb += [self.scan.period.eq(storage[("SCAN_PERIOD", None, "samples")]),
+                     self.scan.start.eq(storage[("SCAN_START", None, "azimuth")]),
+                     self.scan_restart.eq(strobe[ctrl.addr] & land_data[None][SCAN_RESTART.bit_length() - 1]),
+                     self.pattern_shift.eq(storage[("PATTERN", None, "shift")]),
+                     self.pattern_floor.eq(storage[("PATTERN", None, "floor")])]
+        # the table's write path, registered, as the pool's (``_pool_write``)
+        addr = storage[("PATTERN_ADDR", None, "addr")]
+        word_w = strobe[rmap.reg("PATTERN_DATA").addr]
+        word = land_data[None][:PATTERN_WIDTH]
+        m.d.sync += self.pattern_w_en.eq(word_w)
+        with m.If(word_w):
+            m.d.sync += [self.pattern_w_addr.eq(addr), self.pattern_w_data.eq(word), addr.eq(addr + 1)]
+        pattern_crc = Signal(32, init=0xFFFFFFFF, name="pattern_crc")
+        _crc_run(m, pattern_crc, strobe[rmap.reg("PATTERN_ADDR").addr], word_w, word, "pattern_crc")
+        env.pattern_crc = pattern_crc
+
     def _read_back(self, env):
         """The read-back: three parts, each sampled at its own stage, each a
         registered selection over the registers, ORed."""
@@ -800,20 +845,28 @@ class RegisterFile(wiring.Component):
             hooks_stored[("CTRL", l, "rejected")] = rejected[l]
             hooks_stored[("DELAY", l, "applied")] = taps[l]
         hooks_stored[("COMMON_DELAY", None, "applied")] = applies
+        hooks_scan = {}
+        if rmap.contract.scan:
+            hooks_stored[("PATTERN_CRC", None, "crc")] = ~env.pattern_crc
+            hooks_scan = {("SCAN_STATUS", None, "beam"): self.scan_beam,
+                          ("SCAN_STATUS", None, "learned"): self.scan_learned,
+                          ("ACP_PER_REV", None, "count"): self.scan_per_rev,
+                          ("STATUS", None, "arp_lost"): self.scan_lost}
 
         def stored(key, f):
             if key in storage and f.access == "rw":
                 return storage[key]
             if key in hooks_stored:
                 return hooks_stored[key]
-            if (f.access == "ro" and key not in hooks_mirror and key not in hooks_status
-                    and (key[0], key[2]) not in READ_BACK_RAM.values()):
+            if (f.access == "ro" and key not in hooks_mirror and key not in hooks_status and key not in hooks_scan
+                    and (key[0], key[2]) not in read_back_ram(rmap).values()):
                 return Const(f.reset, f.width)
             return None
 
         parts = [(wd, stored),
                  (self._mirror_delay, lambda key, f: hooks_mirror.get(key)),
-                 (self._status_delay, lambda key, f: hooks_status.get(key))]
+                 (self._status_delay, lambda key, f: hooks_status.get(key)),
+                 (self._scan_delay, lambda key, f: hooks_scan.get(key))]
         # RAM_FIELDS read back from their group's RAMs at the read's slot
         # (from the stage before, registered), sampled with the stored values:
         # the RAM's word, or the reset value while the slot's field is
@@ -837,9 +890,9 @@ class RegisterFile(wiring.Component):
             # each field's hit (the range compare and the offset's in one
             # clock were among the 64-channel build's late paths, 6.2 ns)
             in_ram = decoded(lambda op, members=members: _within(op.addr, *ram_range(members)), 1, "rd_in_ram", g)
-            for name, (reg_name, field_name) in READ_BACK_RAM.items():
+            for name, (reg_name, field_name) in read_back_ram(rmap).items():
                 f = rmap.reg(reg_name, 0).field(field_name)
-                offset = rmap.reg(reg_name, 0).addr - CHANNEL_BASE
+                offset = rmap.reg(reg_name, 0).addr - rmap.channel_base
                 raw_read, fresh, reset_of = ram_reads[g][name]
                 rd_slot = {what: kept_register(m, platform, rd_slot_of, f"rd_slot_{name}_{what}_g{g}")
                            for what in ("use_reset", "reset", "ram")}
@@ -954,6 +1007,23 @@ class RegisterFile(wiring.Component):
             m.d.sync += nxt.eq(out)
             out = nxt
         return out
+
+
+def _crc_run(m, crc, restart, word_strobe, word, name):
+    """The CRC-32 register ``crc`` (zlib's value XOR ones) over the words
+    landed at ``word_strobe`` since ``restart``: the landing clock loads the
+    word into a shift register, the CRC then takes CRC_CLOCKS clocks,
+    32 / CRC_CLOCKS bits a clock (complete before the next access lands)."""
+    k = CRC_CLOCKS
+    b = 32 // k
+    rest = Signal(32, name=f"{name}_rest")
+    left = Signal(range(k + 1), name=f"{name}_left")
+    with m.If(restart):
+        m.d.sync += crc.eq(0xFFFFFFFF)
+    with m.Elif(word_strobe):
+        m.d.sync += [rest.eq(word), left.eq(k)]
+    with m.Elif(left != 0):
+        m.d.sync += [crc.eq(crc32_step(crc, rest[:b])), rest.eq(rest[b:]), left.eq(left - 1)]
 
 
 def _reads(reads, op):

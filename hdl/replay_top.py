@@ -19,6 +19,9 @@ from .pool_check import PoolReadCheck
 from .registered_fifo import RegisteredFIFO
 from .sdram_pool import SDRAMStreamPool, native_port_signature, WORD_WIDTH
 from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_values_layout
+from .acp_input import AcpInput
+from .scan_generator import ScanGenerator, SCAN_MODES
+from .pipeline.pattern_gain import BEAM_LAYOUT, PATTERN_LAYOUT
 from rast.model.contract.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG,
                                             ACCEPT_LAG, POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH,
                                             SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS, REGISTER_STAGING,
@@ -97,16 +100,22 @@ class WindFarmReplay(wiring.Component):
     underflow : Out(1), SDRAM pool only
         STATUS.underflow: a channel read a stream word before it arrived (a
         fetch later than the contract's bound), sticky until STATUS is read.
+    acp, arp : In(1), with the antenna scan (``scan``)
+        The radar's azimuth change and reference pulses, asynchronous
+        (:class:`AcpInput`: synchronised, glitch-filtered). A rising edge on
+        a pin counts for the steps accepted ``acp_lead`` clocks or more after
+        the clock it is first seen in.
     """
 
     def __init__(self, channels=4, *, slots=1, pool_words=ReplayContract.pool_words,
                  max_delay=ReplayContract.max_delay, max_tap=ReplayContract.max_tap,
-                 interpolation="fir", cmult_form="4mult", sample_rate_hz=0, pool="bram", init=None,
-                 init_common_delay=0):
+                 interpolation="fir", cmult_form="4mult", sample_rate_hz=0, pool="bram", scan=False,
+                 init=None, init_common_delay=0, acp_filter_clocks=16):
         self._contract = ReplayContract(channels=channels, slots=slots, pool_words=pool_words,
                                         max_delay=max_delay, max_tap=max_tap,
                                         interpolation=interpolation, cmult_form=cmult_form,
-                                        sample_rate_hz=sample_rate_hz, pool=pool)
+                                        sample_rate_hz=sample_rate_hz, pool=pool, scan=scan)
+        self._acp_inputs = (AcpInput(acp_filter_clocks), AcpInput(acp_filter_clocks)) if scan else None
         init = list(init or [])
         if len(init) > channels:
             raise ValueError(f"Initial contents must be given for at most {channels} channels, "
@@ -131,6 +140,7 @@ class WindFarmReplay(wiring.Component):
             "slot": Out(range(max(2, slots)), init=reset_slot(slots)),
             **({"native": Out(native_port_signature(SDRAM_ADDRESS_WIDTH, WORD_WIDTH)),
                 "pool_error": Out(1), "underflow": Out(1)} if pool == "sdram" else {}),
+            **({"acp": In(1), "arp": In(1)} if scan else {}),
         })
 
     @property
@@ -154,6 +164,20 @@ class WindFarmReplay(wiring.Component):
     def latency(self):
         """Fixed latency L in samples (``ReplayContract.latency``)."""
         return self._contract.latency
+
+    @property
+    def acp_filter_clocks(self) -> int:
+        """With the scan: the clocks an ACP or ARP pin must hold a new level."""
+        return self._acp_inputs[0].filter_clocks
+
+    @property
+    def acp_lead(self) -> int:
+        """With the scan: an ACP or ARP pin that rises in clock c (first high
+        there) counts for the steps whose input is accepted in clock
+        c + acp_lead or later: the input's synchroniser and filter, the
+        generator's register, less the clocks from the accept to the
+        generator taking the step."""
+        return self._acp_inputs[0].latency + 1 - ACCEPT_LAG
 
     @property
     def fifo_depth(self) -> int:
@@ -183,7 +207,7 @@ class WindFarmReplay(wiring.Component):
                               b0=0 if M == 1 else 1,                  # a pipeline's update stage
                               K=c.output_cycles, regs_layout=channel_regs_layout(self._rmap),
                               values_layout=slot_values_layout(self._rmap))
-        for stage in (self._input, self._registers, self._common_line, self._pool_and_scan,
+        for stage in (self._input, self._registers, self._beam, self._common_line, self._pool_and_scan,
                       self._pipelines, self._requests, self._sum_and_output):
             stage(env)
         return m
@@ -269,7 +293,11 @@ class WindFarmReplay(wiring.Component):
         V = visit_cycles(M)
         m.submodules.regs = regs = RegisterFile(
             self._rmap, mirror_delay=V + b0 + MIRROR_LAG + 1 + Sw, status_delay=K + WRITE_STAGING,
-            groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)], slots=M)
+            groups=[list(range(p * M, min(N, (p + 1) * M))) for p in range(P)], slots=M,
+            # a read sees the beam after every step accepted before its landing
+            # and none after: the generator takes a step ACCEPT_LAG clocks after
+            # its accept, and the landing clock's own input in the clock after
+            scan_delay=WRITE_STAGING + ACCEPT_LAG)
         wiring.connect(m, wiring.flipped(self.bus), regs.bus)
         # ``take`` (the bus's ready) from a register: it reaches the host bridge's
         # control, and decoded from the slot counter it was the 10-channel
@@ -471,6 +499,35 @@ class WindFarmReplay(wiring.Component):
                             grouped=grouped, req_addr=req_addr, req_tag=req_tag, req_valid=req_valid,
                             scan=scan)
 
+    def _beam(self, env):
+        """The antenna scan: the radar's pulses, the beam's generator, and the
+        beam of each step as the generator takes it, with the pattern's
+        settings, for the pipelines (``beam``, ``pattern``)."""
+        env.beam = env.pattern = None
+        if not self._contract.scan:
+            return
+        m, regs, stepped = env.m, env.regs, env.stepped
+        m.submodules.acp_in, m.submodules.arp_in = acp_in, arp_in = self._acp_inputs
+        m.submodules.scan = gen = ScanGenerator()
+        # The generator takes the step in the pipelines' period start, after a
+        # write before it has landed (a clock before): SCAN_CTRL's restart and
+        # mode count from the step they are written before, as GAIN does.
+        takes = Signal(name="scan_takes")
+        m.d.sync += takes.eq(stepped)
+        m.d.comb += [acp_in.pin.eq(self.acp), arp_in.pin.eq(self.arp),
+                     gen.acp.eq(acp_in.rise), gen.arp.eq(arp_in.rise),
+                     gen.settings.eq(regs.scan), gen.restart.eq(regs.scan_restart), gen.accept.eq(takes),
+                     regs.scan_beam.eq(gen.beam), regs.scan_lost.eq(gen.arp_lost),
+                     regs.scan_learned.eq(gen.learned), regs.scan_per_rev.eq(gen.per_rev)]
+        beam = Signal(BEAM_LAYOUT, name="step_beam")
+        with m.If(takes):
+            m.d.sync += [beam.code.eq(gen.beam), beam.on.eq(regs.scan.mode != SCAN_MODES["stare"])]
+        pattern = Signal(PATTERN_LAYOUT, name="pattern")
+        m.d.comb += [pattern.shift.eq(regs.pattern_shift), pattern.floor.eq(regs.pattern_floor),
+                     pattern.w_en.eq(regs.pattern_w_en), pattern.w_addr.eq(regs.pattern_w_addr),
+                     pattern.w_data.eq(regs.pattern_w_data)]
+        env.beam, env.pattern = beam, pattern
+
     def _pipelines(self, env):
         """The pipelines, each with its copies of the accept, c[n], the offer and the pool's answers."""
         M, N, P, c, common, credit = env.M, env.N, env.P, env.c, env.common, env.credit
@@ -518,6 +575,10 @@ class WindFarmReplay(wiring.Component):
             offer = kept_register(m, platform, scan[p] & credit, f"offer{p}", reset=True)
             m.d.comb += [pl.accept.eq(acc_p), pl.win_data.eq(win_data), pl.offer.eq(offer),
                          pl.values.eq(regs.values[p])]
+            if env.beam is not None:
+                # a copy of the step's beam and of the pattern's settings for each pipeline
+                m.d.comb += [pl.beam.eq(kept_register(m, platform, env.beam.as_value(), f"beam{p}")),
+                             pl.pattern.eq(kept_register(m, platform, env.pattern.as_value(), f"pattern{p}"))]
             for s in range(M):
                 ch = p * M + s
                 if ch < N:

@@ -117,9 +117,9 @@ def cmd_stream(args) -> int:
     for warning in farm_streams.warnings:
         print(f"rast stream: warning: {warning}", file=sys.stderr)
     if farm.scan.turning:
-        print(f"rast stream: warning: scan_mode = {farm.scan.mode!r}: the streams are the same as staring; "
-              "the gateware does not apply the antenna scan yet, so a board lights every turbine on every "
-              "pulse (`rast preview --ppi` and `rast assess` model the scan)", file=sys.stderr)
+        print(f"antenna scan {farm.scan.mode!r}: the streams are those of a staring antenna; the manifest "
+              "carries each turbine's azimuth and the pattern, which a bitstream built with --scan applies "
+              "(one without it refuses this manifest)")
     print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()
@@ -218,39 +218,85 @@ def _preview_ppi(args, farm) -> int:
     if not scan.turning:
         raise UserError(f"--ppi draws a turning antenna's revolution, but {args.config} stares "
                         "(scan_mode = \"stare\"): set scan_mode = \"free\" or \"acp\" and scan_rpm")
-    seconds = scan.revolution_s if args.seconds is None else args.seconds
-    try:
-        scene = simulate(farm, AssessConfig(seconds=seconds, physics=not args.replay))
-        image = dwell_image(scene.samples, scan.beam_azimuth_deg(scene.times_s), scan.beamwidth_deg,
-                            args.mti or 0)
-    except ValueError as error:
-        raise UserError(str(error)) from None
-    grid = scene.grid
-    edges = (grid.first + np.arange(grid.count + 1)) * grid.spacing_km
     radar = farm.radar
     mti = f", {args.mti}-pulse MTI" if args.mti else ""
+    if args.gates:
+        if args.replay or args.seconds is not None:
+            raise UserError("--gates draws the cosimulation's own pulses: leave out --replay and --seconds")
+        samples, times_s, edges, noise_dbfs = _cosim_gates(args.gates, radar.prf_hz)
+        seconds = float(times_s[-1] + 1 / radar.prf_hz) if times_s.size else 0.0
+        what = f"RTL samples of the cosimulation in {args.gates}, no noise"
+    else:
+        seconds = scan.revolution_s if args.seconds is None else args.seconds
+        try:
+            scene = simulate(farm, AssessConfig(seconds=seconds, physics=not args.replay))
+        except ValueError as error:
+            raise UserError(str(error)) from None
+        samples, times_s, noise_dbfs = scene.samples, scene.times_s, scene.noise_dbfs
+        grid = scene.grid
+        edges = (grid.first + np.arange(grid.count + 1)) * grid.spacing_km
+        what = f"{'replayed stream words' if args.replay else 'physics'}, noise {noise_dbfs:g} dBFS"
+    try:
+        image = dwell_image(samples, scan.beam_azimuth_deg(times_s), scan.beamwidth_deg, args.mti or 0)
+    except ValueError as error:
+        raise UserError(str(error)) from None
     title = (f"{Path(args.config).name}: {seconds:g} s at {scan.rpm:g} rpm, {scan.beamwidth_deg:g}° beam, "
              f"{scan.dwell_pulses(radar.prf_hz):.1f} pulses per dwell{mti}\n"
-             f"{'replayed stream words' if args.replay else 'physics'}, noise {scene.noise_dbfs:g} dBFS, "
-             f"{radar.frequency_mhz / 1e3:g} GHz, PRF {radar.prf_hz:g} Hz")
+             f"{what}, {radar.frequency_mhz / 1e3:g} GHz, PRF {radar.prf_hz:g} Hz")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
         with atomic_file(out) as png:
             save_ppi(png, image, edges, turbines=[(w.azimuth_deg, w.range_km) for w in farm.windmills],
-                     dynamic_range_db=args.dynamic_range, floor_db=scene.noise_dbfs - 5,
-                     title=title)
+                     dynamic_range_db=args.dynamic_range,
+                     floor_db=None if noise_dbfs is None else noise_dbfs - 5, title=title)
     except OSError as error:
         raise UserError(f"cannot write {out}: {error.strerror or error}") from None
     looked = image.pulses > 0
     lit = np.where(looked, np.nanmax(np.where(looked[:, None], image.power_db(), 0.0), axis=1), -np.inf)
-    print(f"{scene.times_s.size} pulses over {seconds:g} s, {int(looked.sum())} of {image.cells} dwells of "
+    print(f"{times_s.size} pulses over {seconds:g} s, {int(looked.sum())} of {image.cells} dwells of "
           f"{scan.beamwidth_deg:g}° looked at, {image.pulses[looked].mean():.1f} pulses each{mti}")
     strongest = int(np.nanargmax(lit))
     print(f"strongest dwell {strongest * scan.beamwidth_deg:g}-{(strongest + 1) * scan.beamwidth_deg:g}°: "
-          f"{lit[strongest]:.1f} dBFS mean power; noise {scene.noise_dbfs:g} dBFS")
+          f"{lit[strongest]:.1f} dBFS mean power"
+          + ("" if noise_dbfs is None else f"; noise {noise_dbfs:g} dBFS"))
     print(f"wrote {out.resolve()}")
     return 0
+
+
+def _cosim_gates(folder, prf_hz):
+    """A `rast cosim` folder's gates as a PPI's input: ``(samples (gates,
+    pulses) in full-scale units, pulse times, range edges, None)``; each gate
+    a ring 100 m deep, the ranges between them empty."""
+    import json
+    import numpy as np
+    from rast.model.contract.fixedpoint import OUTPUT_WIDTH
+    folder = Path(folder)
+    try:
+        gates = np.load(folder / "gates.npy")
+        report = json.loads((folder / "report.json").read_text())
+        ranges = [float(r) for r in report["gates_km"]]
+    except (OSError, ValueError, KeyError) as error:
+        raise UserError(f"--gates {folder}: not a `rast cosim` output folder (gates.npy, report.json): "
+                        f"{error}") from None
+    if gates.ndim != 2 or gates.shape[1] != len(ranges):
+        raise UserError(f"--gates {folder}: gates.npy has shape {gates.shape}, report.json {len(ranges)} gates")
+    if abs(float(report.get("prf_hz", prf_hz)) - prf_hz) > 1e-6 * prf_hz:
+        raise UserError(f"--gates {folder} was cosimulated at a PRF of {report['prf_hz']:g} Hz, the config's "
+                        f"is {prf_hz:g} Hz: not this config's cosimulation")
+    half = 0.05
+    edges, rows = [], []
+    for g, r in enumerate(ranges):               # ascending: the gates of `rast cosim`
+        if edges and r - half > edges[-1]:
+            rows.append(None)                     # the gap to this gate: empty
+        if not edges or r - half > edges[-1]:
+            edges.append(r - half)
+        edges.append(r + half)
+        rows.append(g)
+    full_scale = float(1 << (OUTPUT_WIDTH - 1))
+    samples = np.array([gates[:, g] / full_scale if g is not None else np.full(gates.shape[0], np.nan)
+                        for g in rows])
+    return samples, np.arange(gates.shape[0]) / prf_hz, np.array(edges), None
 
 
 def _formats(text: str) -> tuple[str, ...]:
@@ -385,6 +431,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a turning antenna's PPI instead: each range gate's power over each dwell")
     p.add_argument("--mti", type=int, choices=(2, 3), default=None,
                    help="with --ppi: a 2- or 3-pulse MTI canceller before the integration")
+    p.add_argument("--gates", metavar="DIR", default=None,
+                   help="with --ppi: draw the RTL's samples of a `rast cosim` of this config (its --out "
+                        "folder: gates.npy, report.json) instead of the model's")
     p.set_defaults(func=cmd_preview)
 
     p = sub.add_parser("import", help="make a recorded slow-time I/Q series into a stream")

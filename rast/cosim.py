@@ -144,10 +144,14 @@ def _check_options(args, farm) -> None:
     from rast.errors import UserError, check_output
     from rast.model.contract.fixedpoint import ReplayContract
     finite = lambda v: v == v and abs(v) != float("inf")
-    if farm.scan.turning:
-        raise UserError(f"{args.config} turns the antenna (scan_mode = {farm.scan.mode!r}), which the gateware "
-                        "does not apply yet: `rast preview --ppi` and `rast assess` model the scan; "
-                        "cosimulate with scan_mode = \"stare\"")
+    if farm.scan.mode == "acp":
+        raise UserError(f"{args.config} follows the radar's ACP/ARP pulses (scan_mode = \"acp\"), which this "
+                        "cosimulation does not drive (its wrapper ties them low): cosimulate the config "
+                        "with scan_mode = \"free\" at the radar's scan_rpm (a beam turning at the same "
+                        "rate; docs/antenna_scan.md, \"The scan in the gateware\")")
+    if farm.scan.turning and (args.sdram or args.netlist):
+        raise UserError(f"{args.config} turns the antenna: its cosimulation is of the block-RAM engine's "
+                        "Verilog (leave out --sdram and --netlist)")
     if not (finite(args.seconds) and args.seconds > 0):
         raise UserError(f"--seconds must be a positive number of seconds, not {args.seconds:g}")
     samples = args.seconds * farm.sample_rate_hz
@@ -217,8 +221,8 @@ def run(args) -> int:
                     else top_sources)
     sources, top = make_sources(c.channels, slots=c.slots, pool_words=c.pool_words,
                                 max_delay=c.max_delay, interpolation=c.interpolation,
-                                max_tap=c.max_tap)
-    kind = "-netlist" if args.netlist else "-sdram" if args.sdram else ""
+                                max_tap=c.max_tap, **({"scan": True} if c.scan else {}))
+    kind = "-netlist" if args.netlist else "-sdram" if args.sdram else "-scan" if c.scan else ""
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
                      label=f"cosim{c.channels}m{c.slots}{kind}", bulk=True)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
@@ -255,6 +259,9 @@ def run(args) -> int:
              f"design              {'netlist after synth_ecp5, ECP5 cell models' if args.netlist else 'behavioural Verilog'}"
              f"{', stream pool in SDRAM (LiteDRAM simulation core)' if args.sdram else ''}",
              f"radar time          {args.seconds:g} s ({e.pulse.n_pulses} pulses)",
+             *([f"antenna scan        {farm.scan.mode}, {farm.scan.rpm:g} rpm from {farm.scan.start_deg:g} deg, "
+                f"the two-way pattern in every channel's gain (AZIMUTH, the table loaded at sample 0)"]
+               if farm.scan.turning else []),
              *([f"reload              every stream again from {args.reload_at:g} s "
                 f"({e.info['reload_writes']:,} register writes, the last at "
                 f"{e.info['reload_end_s']:.4f} s), each channel switched at once"]
@@ -286,7 +293,9 @@ def run(args) -> int:
             state = ("ok" if d["ok"] else "OFF BY MORE THAN ONE BIN") if d["reached"] else \
                 "its peak is not inside this run"
             if not rep.get("doppler_checked", True):
-                state = "not checked (the reload restarts every stream from its first word)"
+                state = ("not checked (the antenna turns: the beam lights each turbine only while on it)"
+                         if farm.scan.turning else
+                         "not checked (the reload restarts every stream from its first word)")
             shared = "" if d["explained_by"] == d["windmill"] else \
                 f", the edge of {d['explained_by']} in the same gate; its own {d['windmill_hz']:.1f} Hz"
             lines.append(f"max Doppler {d['windmill']:<8} RTL {d['measured_hz']:8.1f} Hz, physics "

@@ -17,6 +17,11 @@ are written from pool address 0, as at start-up.
 
 With ``--verify`` (a bitstream whose pool is in SDRAM) it then reads every
 stream back out of the SDRAM and compares its CRC-32.
+
+A manifest whose antenna turns, into a bitstream built with the scan: each
+channel's AZIMUTH with the rest, then the pattern table with the scan off
+(stare), its CRC-32 read back (PATTERN_CRC) and the table sent again until
+it matches, and only then the scan's period, start and mode.
 """
 
 import os
@@ -29,7 +34,7 @@ from rast.model.contract.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, P
 from rast.model.contract.regmap import (ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED,
                                         APPLIED_LSB)
 from rast.model.contract.datapath import ONE
-from rast.model.contract.loadplan import NoRoomBeside, manifest_to_register_writes
+from rast.model.contract.loadplan import NoRoomBeside, manifest_to_register_writes, scan_writes, pattern_crc
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
            "send_writes", "read_status", "verify_pool", "stream_runs", "playing_streams", "stream_segments",
@@ -77,7 +82,7 @@ def _read_contract(bridge: HostBridge) -> ReplayContract:
                        max_tap=bridge.read(a("MAX_TAP")),
                        interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],
                        cmult_form="3mult" if cfg >> 10 & 1 else "4mult",
-                       pool="sdram" if cfg >> 11 & 1 else "bram",
+                       pool="sdram" if cfg >> 11 & 1 else "bram", scan=bool(cfg >> 12 & 1),
                        sample_rate_hz=bridge.read(a("SAMPLE_RATE")))
     lat = bridge.read(a("LATENCY"))
     if lat != c.latency:
@@ -91,7 +96,7 @@ def expected_readback(writes, rmap):
     exp = {}
     for addr, value in writes:
         r = rmap.by_addr(addr)
-        if (r is None or r.name in ("STREAM_DATA", "APPLY", "STREAM_ADDR")
+        if (r is None or r.name in ("STREAM_DATA", "APPLY", "STREAM_ADDR", "PATTERN_ADDR")
                 or not any(f.access == "rw" for f in r.fields)):
             continue
         v = 0
@@ -120,7 +125,7 @@ def plan_writes(manifest, contract, words=None, playing=None):
     :class:`rast.errors.UserError` (nothing is sent)."""
     try:
         return manifest_to_register_writes(manifest, contract, streams=words, target="board",
-                                           playing=playing)
+                                           playing=playing, with_scan=False)
     except NoRoomBeside:
         raise
     except ValueError as error:
@@ -228,6 +233,10 @@ def _load_once(bridge, manifest, words, contract, progress, wait, live):
             playing, why = None, str(no_room)
     res = send_writes(bridge, writes, contract, progress, channels=len(manifest["registers"]["channels"]),
                       playing=playing, wait=wait, switch_s=switch_s)
+    if contract.scan:
+        scanned = load_scan(bridge, contract, manifest.get("scan"))
+        res["retries"] += scanned["retries"]
+        writes = writes + scanned["writes"]
     res["line_bytes"] = line_bytes(writes)
     res["plan"] = writes
     if words is not None:
@@ -235,6 +244,43 @@ def _load_once(bridge, manifest, words, contract, progress, wait, live):
         res["muted_why"] = why
         res["switch_s"] = switch_s if playing is not None else 0.0
     return res
+
+
+def load_scan(bridge, contract, scan) -> dict:
+    """The antenna scan of a manifest (its ``scan``, None: it stares) into a
+    block built with the scan: the pattern with the scan off, its CRC-32 read
+    back (PATTERN_CRC) and the table sent again until it matches (RETRIES
+    times; then the scan stays off and :class:`LoadError` says so), then the
+    scan's start, read back. Returns ``writes`` (what was sent last) and
+    ``retries``."""
+    rmap = register_map(contract)
+    a = rmap.addr
+    load, start = scan_writes(rmap, scan)
+    retried = []
+    for attempt in range(RETRIES + 1):
+        bridge.write_many(load)
+        if scan is None:
+            break
+        want = pattern_crc(scan)
+        got = _read_twice(bridge, a("PATTERN_CRC"), want)
+        if got == want:
+            break
+        retried.append(f"the pattern table (PATTERN_CRC {got:#010x}, sent {want:#010x})")
+    else:
+        raise LoadError(f"The pattern table did not arrive intact after {RETRIES + 1} tries (PATTERN_CRC "
+                        f"{got:#010x}, the table's CRC-32 {want:#010x}); the scan is off (stare). Load again.")
+    bridge.write_many(start)
+    for attempt in range(RETRIES + 1):
+        wrong = {addr: v for addr, (r, v) in expected_readback(load + start, rmap).items()
+                 if _read_twice(bridge, addr, v) & sum(f.mask for f in r.fields if f.access == "rw") != v}
+        if not wrong:
+            break
+        if attempt == RETRIES:
+            raise LoadError("The scan's registers read back differently after "
+                            f"{RETRIES + 1} writes: " + ", ".join(_name(rmap, addr) for addr in wrong))
+        retried.append("the scan's settings")
+        bridge.write_many(start)
+    return {"writes": load + start, "retries": retried}
 
 
 def _read_twice(bridge, addr, want):

@@ -18,6 +18,9 @@ def add_arguments(parser: argparse.ArgumentParser):
     parser.add_argument("--manifest", type=Path,
                         help="bake the streams and registers of this `rast stream` manifest "
                              "(manifest.json or its folder) into the power-up state")
+    parser.add_argument("--scan", action="store_true",
+                        help="with the antenna scan (ports acp, arp; docs/antenna_scan.md); it powers up "
+                             "staring, a host loads its table (rast load)")
     parser.add_argument("--name", default="wind_farm_replay", help="Verilog module name")
     parser.add_argument("--lint", action="store_true", help="run Verilator --lint-only -Wall after")
     parser.add_argument("-o", "--output", type=Path, required=True, help="Verilog file to write")
@@ -30,7 +33,7 @@ def run(args):
     from rast.gateware.verilog import lint, write_verilog
     from rast.model.contract.fixedpoint import ReplayContract
     from rast.options import replay_kwargs
-    kwargs = replay_kwargs(args)
+    kwargs = {**replay_kwargs(args), **({"scan": True} if args.scan else {})}
     try:
         contract = ReplayContract(channels=args.channels, **kwargs)
     except ValueError as error:

@@ -16,30 +16,33 @@ __all__ = ["TOP_MODULE", "port_map", "top_sources", "sdram_engine_top_sources"]
 TOP_MODULE = "wind_farm_replay"
 
 
-def port_map(addr_width: int, module: str = TOP_MODULE, observe=("overflow",)) -> PortMap:
+def port_map(addr_width: int, module: str = TOP_MODULE, observe=("overflow",), scan=False) -> PortMap:
     """The replay top's ports for the bulk wrapper; ``observe``: one-bit
-    outputs brought out (reported as ``obs_<name>`` in the run's summary)."""
+    outputs brought out (reported as ``obs_<name>`` in the run's summary);
+    ``scan``: the antenna scan's ACP and ARP inputs tied low (the beam free
+    running: the bulk wrapper drives no radar pulses)."""
     return PortMap(module=module, in_payload="i__payload", in_valid="i__valid",
                    in_ready="i__ready", in_width=32, out_payload="o__payload",
                    out_valid="o__valid", out_ready="o__ready", out_width=32,
                    bus_addr="bus__addr", bus_addr_width=addr_width, bus_w_data="bus__w_data",
                    bus_w_stb="bus__w_stb", bus_ready="bus__ready", bus_settle=WRITE_STAGING - 1,
-                   tie={"bus__r_stb": (1, 0)},
+                   tie={"bus__r_stb": (1, 0), **({"acp": (1, 0), "arp": (1, 0)} if scan else {})},
                    observe={n: 1 for n in observe}, open_outputs=("bus__r_data", "bus__r_valid", "slot"))
 
 
 @lru_cache(maxsize=None)
 def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int, slots: int = 1,
-                interpolation: str = "fir", cmult_form: str = "4mult", src_aw: int = 22):
+                interpolation: str = "fir", cmult_form: str = "4mult", scan: bool = False, src_aw: int = 22):
     """``({file: text}, toplevel)`` of the replay top inside ``rast_bulk``."""
     from rast.gateware.verilog import verilog_text
     from rast.model.contract.fixedpoint import ReplayContract
     from rast.model.contract.regmap import register_map
     kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
-                  interpolation=interpolation, cmult_form=cmult_form)
+                  interpolation=interpolation, cmult_form=cmult_form, **({"scan": True} if scan else {}))
     text = _cached_verilog(channels, kwargs, lambda: verilog_text(channels, name=TOP_MODULE, **kwargs))
     aw = register_map(ReplayContract(channels=channels, **kwargs)).addr_width
-    return {f"{TOP_MODULE}.v": text, "rast_bulk.v": bulk_verilog(port_map(aw), src_aw=src_aw)}, "rast_bulk"
+    return ({f"{TOP_MODULE}.v": text, "rast_bulk.v": bulk_verilog(port_map(aw, scan=scan), src_aw=src_aw)},
+            "rast_bulk")
 
 
 @lru_cache(maxsize=None)

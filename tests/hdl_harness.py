@@ -12,12 +12,21 @@ import itertools
 import numpy as np
 from amaranth.sim import Simulator
 
-from rast.model.contract.datapath import ReplayModel
 from rast.model.contract.fixedpoint import WRITE_STAGING, take_interval
+from rast.sim import scan_drive
+from rast.sim.scan_drive import pin_levels, pulse_events, merge
 
 
-def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False):
+def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False, pulses=()):
     """Drive ``dut``; ``ops`` is a list of ``(at_step, "w"|"r", addr, value)``.
+
+    ``pulses`` (a block built with the antenna scan): ``(pin, clock, high)``,
+    ``pin`` "acp" or "arp" high from ``clock`` for ``high`` clocks. Each one
+    the block's filter passes (``high`` at least its filter's clocks; the
+    pulses of a pin are taken to be that far apart) is returned among the
+    done ops as ``(k, "e", arp, acp)``, k the inputs accepted before the
+    clock ``dut.acp_lead`` after its rise (an ARP and an ACP rising together:
+    one entry), placed before the accesses of the same k.
 
     ``valid`` and ``ready`` are patterns repeated clock by clock; an input
     offered stays offered until it is taken (a stream's rule), so the
@@ -40,6 +49,9 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
     M = dut.contract.slots
     limit = max_cycles or ((T + len(ops)) * take_interval(M) * 8 + 400)
 
+    high = pin_levels(pulses)
+    accepted_at = []               # the clock of each input taken
+
     async def bench(ctx):
         vpat = itertools.cycle(valid)
         offered = False            # an input offered and not yet taken stays offered (a stream's rule)
@@ -61,6 +73,9 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
                 ctx.set(dut.i.payload.re, xi[n_in])
                 ctx.set(dut.i.payload.im, xq[n_in])
             ctx.set(dut.o.ready, r)
+            if pulses:
+                ctx.set(dut.acp, "acp" in high.get(cycle, ()))
+                ctx.set(dut.arp, "arp" in high.get(cycle, ()))
             if due:
                 op = ops[op_i]
                 ctx.set(dut.bus.addr, op[2])
@@ -92,6 +107,7 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
                     done.append([None, "w", op[2], op[3]])
             if ce:
                 n_in += 1
+                accepted_at.append(cycle)
         raise AssertionError(f"run_replay: not finished after {limit} cycles "
                              f"({n_in}/{T} in, {len(out_i)} out, {op_i}/{len(ops)} ops)")
 
@@ -99,29 +115,15 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
     sim.add_clock(1e-8)
     sim.add_testbench(bench)
     sim.run()
-    return (np.array(out_i, dtype=np.int64), np.array(out_q, dtype=np.int64),
-            [tuple(d) for d in done])
+    done = [tuple(d) for d in done]
+    if pulses:
+        done = merge(done, pulse_events(pulses, accepted_at, dut.acp_lead, dut.acp_filter_clocks))
+    return (np.array(out_i, dtype=np.int64), np.array(out_q, dtype=np.int64), done)
 
 
 def model_replay(contract, inits, xi, xq, done_ops, common_delay=0):
-    """Replay inputs and the recorded accesses through the model."""
-    model = ReplayModel(contract, inits, common_delay)
-    yi, yq, reads = [], [], []
-    pos = 0
-    for k, kind, addr, value in done_ops:
-        if k > pos:
-            a, b = model.run(xi[pos:k], xq[pos:k])
-            yi.append(a); yq.append(b)
-            pos = k
-        if kind == "w":
-            model.write(addr, value)
-        else:
-            reads.append((k, addr, model.read(addr), value))
-    if pos < len(xi):
-        a, b = model.run(xi[pos:], xq[pos:])
-        yi.append(a); yq.append(b)
-    return (np.concatenate(yi) if yi else np.zeros(0, np.int64),
-            np.concatenate(yq) if yq else np.zeros(0, np.int64), reads, model)
+    """Replay inputs, the recorded accesses (and pulses) through the model."""
+    return scan_drive.model_replay(contract, inits, xi, xq, done_ops, common_delay)
 
 
 def assert_same(name, xi, xq, hi, hq, mi, mq):

@@ -38,7 +38,7 @@ def test_uart_divisor():
 def test_pin_map_uses_distinct_header_pins():
     rows = pin_table()
     balls = [b for _, _, b in rows]
-    assert len(rows) == 16 + 1 + 16 + 1 + 1
+    assert len(rows) == 16 + 1 + 16 + 1 + 1 + 2          # ..., the ACP and ARP inputs
     assert len(set(balls)) == len(balls)
 
 

@@ -274,9 +274,25 @@ def test_example_differs_from_the_atc_example_only_by_its_scan():
     assert scan.scan.dwell_pulses(scan.radar.prf_hz) == pytest.approx(1000 * 1.4 / 75)
 
 
-def test_gateware_commands_say_the_scan_is_not_in_the_gateware(tmp_path, capsys):
-    config = str(EXAMPLES / "asr_scan.toml")
-    assert main(["cosim", config, "--seconds", "0.001", "--out", str(tmp_path / "c")]) == 2
-    assert "does not apply yet" in capsys.readouterr().err and not (tmp_path / "c").exists()
-    assert main(["stream", config, "--out", str(tmp_path / "s")]) == 0
-    assert "lights every turbine on every pulse" in capsys.readouterr().err
+def test_the_commands_of_a_turning_config(tmp_path, capsys):
+    """`rast stream` of a turning config writes the scan into the manifest
+    (each channel's azimuth code, the settings and the table the board
+    loads); `rast cosim` refuses acp mode (its bulk run drives no radar
+    pulses) and an SDRAM or netlist cosimulation of a turning config, before
+    creating anything."""
+    import json
+    config = EXAMPLES / "asr_scan.toml"
+    assert main(["stream", str(config), "--out", str(tmp_path / "s")]) == 0
+    assert "a bitstream built with --scan applies" in capsys.readouterr().out
+    manifest = json.loads((tmp_path / "s" / "manifest.json").read_text())
+    farm = load_config(config)
+    want = sc.scan_settings(farm.scan, farm.sample_rate_hz)
+    assert {k: manifest["scan"][k] for k in want} == want and manifest["scan"]["scan_mode"] == "free"
+    azimuths = [ch["azimuth"] for ch in manifest["registers"]["channels"]]
+    assert azimuths == [int(sc.azimuth_code(s.windmill.azimuth_deg)) for s in build_farm_streams(farm).streams]
+    acp = tmp_path / "acp.toml"
+    acp.write_text(config.read_text().replace('scan_mode = "free"', 'scan_mode = "acp"'))
+    assert main(["cosim", str(acp), "--seconds", "0.001", "--out", str(tmp_path / "c")]) == 2
+    assert "does not drive" in capsys.readouterr().err and not (tmp_path / "c").exists()
+    assert main(["cosim", str(config), "--sdram", "--seconds", "0.001", "--out", str(tmp_path / "c")]) == 2
+    assert "leave out --sdram and --netlist" in capsys.readouterr().err and not (tmp_path / "c").exists()

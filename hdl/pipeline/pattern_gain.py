@@ -3,7 +3,7 @@ two-way pattern at the beam's offset from the channel's azimuth (the
 contract's rule, ``rast.model.contract.scan``; docs/antenna_scan.md)."""
 
 from amaranth.hdl import Module, Signal, Mux
-from amaranth.lib import wiring
+from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
@@ -13,7 +13,23 @@ from rast.model.contract.scan import (AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_
 from ..ecp5_primitives import RegisteredMultiplier
 from ..register_chain import delayed
 
-__all__ = ["PatternGain"]
+__all__ = ["PatternGain", "BEAM_LAYOUT", "PATTERN_LAYOUT", "BEAM_CLOCK", "GAIN_INPUT_DELAY"]
+
+#: A step's beam as the top hands it to each pipeline: its code, and whether
+#: the scan plays (SCAN_CTRL.mode not stare), both taken when the generator
+#: takes the step.
+BEAM_LAYOUT = data.StructLayout({"code": AZIMUTH_BITS, "on": 1})
+#: The pattern's settings and the table's write, from the register file.
+PATTERN_LAYOUT = data.StructLayout({"shift": 3, "floor": PATTERN_WIDTH, "w_en": 1,
+                                    "w_addr": PATTERN_INDEX_BITS, "w_data": PATTERN_WIDTH})
+#: The clock of a pipeline's period from which its ``beam`` holds the step's
+#: beam, for M clocks: the generator takes the step in the period's first
+#: clock, into a register, then a copy per pipeline.
+BEAM_CLOCK = 2
+#: Clocks from a visit to the pattern gain's gain and azimuth inputs: the
+#: beam, BEAM_CLOCK clocks into the period, reaches the first visit's
+#: pattern gain at every M (the visit is 1 or 2 clocks into it).
+GAIN_INPUT_DELAY = 2
 
 
 class PatternGain(wiring.Component):

@@ -27,19 +27,30 @@ class ProductSum(wiring.Component):
         The tap's sample and the stream word (two copies), the values the
         multiplier's operand registers take, WORD_CYCLES - 1 clocks after the visit.
     gain : In(GAIN_WIDTH), vslot : In
-        The channel's gain (0 when disabled) and the slot, at the visit.
+        The channel's gain (0 when disabled), ``gain_lag`` clocks after the
+        visit (at most :attr:`max_gain_lag`), and the slot, at the visit.
     sum : Out(IQ(sum width))
         The period's sum, :attr:`sum_cycles` clocks after the visit of the
         period's last slot; held for M clocks.
     """
 
-    def __init__(self, contract: ReplayContract):
+    def __init__(self, contract: ReplayContract, gain_lag: int = 0):
         if not isinstance(contract, ReplayContract):
             raise TypeError(f"Contract must be a ReplayContract, not {contract!r}")
         self._c = contract
+        if not isinstance(gain_lag, int) or not 0 <= gain_lag <= self.max_gain_lag:
+            raise ValueError(f"gain_lag must be an integer in [0, {self.max_gain_lag}], not {gain_lag!r}")
+        self._gain_lag = gain_lag
         super().__init__({"a": In(2 * INPUT_WIDTH), "b": In(IQ(STREAM_WIDTH)), "b2": In(IQ(STREAM_WIDTH)),
                           "gain": In(GAIN_WIDTH), "vslot": In(range(max(2, contract.slots))),
                           "sum": Out(IQ(contract.sum_width))})
+
+    @property
+    def max_gain_lag(self) -> int:
+        """Clocks the gain may come after the visit: it waits for the
+        product that long (the word and the complex product, but the gain
+        multiplier's operand registers)."""
+        return WORD_CYCLES - 1 + CMULT_CYCLES[self._c.cmult_form]     # the multiplier's operand registers: + 1
 
     @property
     def sum_cycles(self) -> int:
@@ -57,7 +68,8 @@ class ProductSum(wiring.Component):
         m.d.comb += [cm.en.eq(1), cm.a.eq(self.a), cm.b.eq(self.b), cm.b2.eq(self.b2)]
         geff = self.gain
         # (its last two registers the copies below)
-        g = delayed(m, geff, WORD_CYCLES - 2 + cm.latency, "gain", data=True)
+        assert WORD_CYCLES - 2 + cm.latency == self.max_gain_lag
+        g = delayed(m, geff, self.max_gain_lag - self._gain_lag, "gain", data=True)
         q = Signal(IQ(SCALED_WIDTH), name="q", reset_less=True)
         q_sum = {}          # a kept copy of q for the period sum's adder (below)
         for part in ("re", "im"):

@@ -16,7 +16,8 @@ fixed-point contract ``rast.model.contract.fixedpoint``, "The time-multiplexed e
   ``d_l`` the applied DELAY, the tap, of channel l),
 * stream word ``w_l[n] = word(state_l[n])``, the phase held during step n,
 * ``p_l[n] = cmult(t_l[n], w_l[n])``, ``q_l[n] = gain(p_l[n], g_l[n])``
-  (``g_l`` = GAIN if enabled else 0),
+  (``g_l`` = GAIN if enabled else 0; with the antenna scan playing,
+  ``scanned_gain(GAIN, pattern(beam[n] - AZIMUTH_l))``, ``rast.model.contract.scan``),
 * ``y[n] = saturate(sum_l q_l[n])``.
 
 Hence an echo of channel l appears ``L + d_c + d_l`` samples after the input,
@@ -32,6 +33,8 @@ from rast.model.contract.fixedpoint import (ReplayContract, GAIN, PRODUCT_SHIFT,
                                             pack_iq, unpack_iq)
 from rast.model.contract.regmap import register_map, stream_crc32, APPLIED_LSB
 from rast.model.contract.powerup import ChannelInit, pool_contents
+from rast.model.contract.scan import (BeamGenerator, PatternWords, PATTERN_ENTRIES, PATTERN_WIDTH, pattern_lookup,
+                                      scanned_gain)
 
 __all__ = ["cmult", "gain_scale", "interpolate_words", "fir_table", "stream_words",
            "phase_sequence", "delay_line", "channel_sum", "ReplayModel"]
@@ -165,6 +168,19 @@ class ReplayModel:
         # SWAP is checked against values the host stated (docs/registers.md)
         self._stated = [set() for _ in range(N)]
         self.check_crc = 0                 # POOL_CHECK_CRC (SDRAM pool)
+        # the antenna scan (a block built with it): the settings as stored,
+        # the beam's generator, the pattern table and its write path
+        if c.scan:
+            self.azimuth = [self.rmap.reg("AZIMUTH", l).field("azimuth").reset for l in range(N)]
+            self.scan_regs = {name: self.rmap.reg(name).fields[0].reset
+                              for name in ("SCAN_PERIOD", "SCAN_START", "PATTERN_ADDR")}
+            ctrl = self.rmap.reg("SCAN_CTRL")
+            self.scan_ctrl = self._stored(ctrl, sum(f.reset << f.lsb for f in ctrl.fields))
+            self.pattern_reg = 0
+            self.beam = BeamGenerator()
+            self._configure_beam()
+            self.table = np.zeros(PATTERN_ENTRIES, dtype=np.int64)
+            self.pattern_crc = 0
         self.rejected = [0] * N
         self.overflow = 0
         self.steps = 0
@@ -190,6 +206,75 @@ class ReplayModel:
         self._tables[l] = None
         self._streams[l] = self.stream_of(l)     # the words the cache will be filled with
 
+    def _stored(self, r, value):
+        """``value`` written to register ``r`` as its stored fields keep it:
+        each field masked and clamped, write strobes dropped."""
+        out = 0
+        for f in r.fields:
+            if f.access in ("rw", "w"):
+                v = (value >> f.lsb) & ((1 << f.width) - 1)
+                if f.clamp:
+                    v = min(max(v, f.clamp[0]), f.clamp[1])
+                out |= v << f.lsb
+        return out
+
+    def _configure_beam(self):
+        ctrl = self.rmap.reg("SCAN_CTRL")
+        fv = {f.name: (self.scan_ctrl >> f.lsb) & ((1 << f.width) - 1) for f in ctrl.fields}
+        self.beam.configure(fv["mode"], fv["anticlockwise"], fv["auto"], fv["acp_log2"],
+                            self.scan_regs["SCAN_PERIOD"], self.scan_regs["SCAN_START"])
+
+    def _write_scan(self, r, value):
+        """A write to one of the antenna scan's registers."""
+        if r.name == "AZIMUTH":
+            self.azimuth[r.channel] = self._stored(r, value)
+        elif r.name == "SCAN_CTRL":
+            self.scan_ctrl = self._stored(r, value)
+            self._configure_beam()
+            if value & (1 << r.field("restart").lsb):
+                self.beam.restart()
+        elif r.name in ("SCAN_PERIOD", "SCAN_START"):
+            self.scan_regs[r.name] = self._stored(r, value)
+            self._configure_beam()
+        elif r.name == "PATTERN":
+            self.pattern_reg = self._stored(r, value)
+        elif r.name == "PATTERN_ADDR":
+            self.scan_regs[r.name] = self._stored(r, value)
+            self.pattern_crc = 0
+        elif r.name == "PATTERN_DATA":
+            word = value & ((1 << PATTERN_WIDTH) - 1)
+            self.table[self.scan_regs["PATTERN_ADDR"]] = word
+            self.scan_regs["PATTERN_ADDR"] = (self.scan_regs["PATTERN_ADDR"] + 1) % PATTERN_ENTRIES
+            self.pattern_crc = stream_crc32((word,), self.pattern_crc)
+
+    def _read_scan(self, r):
+        """A read of one of the antenna scan's registers (None: not one)."""
+        if r.name == "AZIMUTH":
+            return self.azimuth[r.channel]
+        if r.name == "SCAN_CTRL":
+            return self.scan_ctrl
+        if r.name in self.scan_regs:
+            return self.scan_regs[r.name]
+        if r.name == "PATTERN":
+            return self.pattern_reg
+        if r.name == "PATTERN_CRC":
+            return self.pattern_crc
+        if r.name == "SCAN_STATUS":
+            return self.beam.code | int(self.beam.track.learned) << r.field("learned").lsb
+        if r.name == "ACP_PER_REV":
+            return self.beam.per_rev
+        return None
+
+    def scan_event(self, arp: bool, acp: bool) -> None:
+        """An ARP and/or an ACP (the ARP first) reaches the beam's generator
+        before the next step (a block built with the scan)."""
+        self.beam.event(arp, acp)
+
+    def _pattern(self) -> PatternWords:
+        ctrl = self.rmap.reg("PATTERN")
+        return PatternWords(self.table, (self.pattern_reg >> ctrl.field("floor").lsb) & ((1 << PATTERN_WIDTH) - 1),
+                            self.pattern_reg & ((1 << ctrl.field("shift").width) - 1))
+
     def write(self, addr, value):
         r = self.rmap.by_addr(addr)
         if r is None:
@@ -203,6 +288,9 @@ class ReplayModel:
             if f.clamp:
                 v = min(max(v, f.clamp[0]), f.clamp[1])
             return v
+
+        if self.c.scan:
+            self._write_scan(r, value)
 
         if r.name == "CTRL":
             self.enable[l] = fv("enable")
@@ -266,6 +354,10 @@ class ReplayModel:
                     | (self.rejected[l] << 3))
         if r.name == "STATUS":
             v, self.overflow = self.overflow, 0
+            if self.c.scan:
+                v |= int(self.beam.track.lost) << r.field("arp_lost").lsb
+            return v
+        if self.c.scan and (v := self._read_scan(r)) is not None:
             return v
         stored = {"LENGTH": lambda: self.len_next[l], "PHASE_INC": lambda: self.inc_next[l],
                   "GAIN": lambda: self.gain[l],
@@ -341,7 +433,12 @@ class ReplayModel:
         self._d.append(np.repeat(np.array(self.delay_act + [self.common_act], dtype=np.int64)[:, None],
                                  T, axis=1))
         geff = np.array([g if e else 0 for g, e in zip(self.gain, self.enable)], dtype=np.int64)
-        self._g.append(np.repeat(geff[:, None], T, axis=1))
+        g = np.repeat(geff[:, None], T, axis=1)
+        if self.c.scan and self.beam.mode != 0:
+            beams = self.beam.take(T)
+            offsets = beams[None, :] - np.array(self.azimuth, dtype=np.int64)[:, None]
+            g = scanned_gain(g, pattern_lookup(self._pattern(), offsets))
+        self._g.append(g)
         self._w.append(self._advance_streams(T))
         n0 = self.steps
         self.steps += T

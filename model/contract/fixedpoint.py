@@ -702,6 +702,12 @@ class ReplayContract:
         ``"sdram"`` (the board's SDRAM; a power of two up to
         SDRAM_MAX_POOL_WORDS words, longer refills and a lower highest
         stream rate: see the SDRAM section above).
+    scan : bool
+        The antenna scan is built in: the beam's azimuth (free running or
+        from the radar's ACP/ARP), a per-channel AZIMUTH and each channel's
+        gain times the two-way pattern at the beam's offset
+        (``rast.model.contract.scan``; docs/antenna_scan.md). Off: the
+        block and its register map are what they were without it.
     """
     channels: int = 4
     slots: int = 1
@@ -712,10 +718,11 @@ class ReplayContract:
     cmult_form: str = "4mult"
     sample_rate_hz: int = 0
     pool: str = "bram"
+    scan: bool = False
 
     #: Keys of :meth:`to_dict` that are constructor parameters.
     PARAMETERS = ("channels", "slots", "pool_words", "max_delay", "max_tap", "interpolation",
-                  "cmult_form", "sample_rate_hz", "pool")
+                  "cmult_form", "sample_rate_hz", "pool", "scan")
     #: Most channels a block may have (the CONFIG register's 8-bit field).
     MAX_CHANNELS = 255
     #: Most slots per pipeline.
@@ -733,6 +740,8 @@ class ReplayContract:
                 raise ValueError(f"{what} must be at most {hi}, not {v!r}")
         posint("channels", "Channel count", self.channels, 1, self.MAX_CHANNELS)
         posint("slots", "Slots per pipeline", self.slots, 1, self.MAX_SLOTS)
+        if not isinstance(self.scan, bool):
+            raise TypeError(f"scan must be True or False, not {self.scan!r}")
         if self.pool not in POOL_BACKENDS:
             raise ValueError(f"Pool must be one of {', '.join(POOL_BACKENDS)}, not {self.pool!r}")
         w = self.pool_words

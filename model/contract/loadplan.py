@@ -8,7 +8,9 @@ from pathlib import Path
 from rast.model.contract.fixedpoint import (ReplayContract, GAIN_WIDTH, TARGETS, path_latency,
                                             board_input_latency, board_output_latency, rate_mismatch)
 from rast.model.contract.powerup import ChannelInit
-from rast.model.contract.regmap import register_map, stream_crc32, RegisterMap, CTRL_ENABLE, CTRL_SWAP
+from rast.model.contract.regmap import (register_map, stream_crc32, RegisterMap, CTRL_ENABLE, CTRL_SWAP,
+                                        SCAN_RESTART)
+from rast.model.contract.scan import PATTERN_ENTRIES, PATTERN_ONE, AZIMUTH_CODES
 
 __all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "free_region", "stream_writes",
            "NoRoomBeside", "manifest_to_register_writes", "manifest_channel_inits"]
@@ -112,9 +114,54 @@ def _channel_values(manifest, contract, target="block"):
         if not 0 <= gain < (1 << GAIN_WIDTH):
             raise ValueError(f"Gain word of channel {i} ({ch['windmill']!r}) must be in "
                              f"[0, {(1 << GAIN_WIDTH) - 1}], not {gain}")
+        azimuth = int(ch.get("azimuth", 0))
+        if not 0 <= azimuth < AZIMUTH_CODES:
+            raise ValueError(f"Azimuth code of channel {i} ({ch['windmill']!r}) must be in "
+                             f"[0, {AZIMUTH_CODES - 1}], not {azimuth}")
         out.append(dict(name=ch["windmill"], enable=int(ch.get("enable", 1)), length=length,
-                        inc=inc, gain=gain, delay=delay))
+                        inc=inc, gain=gain, delay=delay, azimuth=azimuth))
     return common, out
+
+
+def _check_scan(manifest, contract):
+    """The manifest's ``scan`` (None when it stares), checked against the block."""
+    scan = manifest.get("scan")
+    if scan is None:
+        return None
+    if not contract.scan:
+        raise ValueError(f"The manifest turns the antenna (scan mode {scan.get('scan_mode')!r}) but the "
+                         "replay block has no antenna scan: build it with --scan")
+    table = scan["pattern"]
+    words = table["words"]
+    if len(words) != PATTERN_ENTRIES or not all(0 <= int(w) <= PATTERN_ONE for w in words):
+        raise ValueError(f"The manifest's pattern must be {PATTERN_ENTRIES} words in [0, {PATTERN_ONE}]")
+    return scan
+
+
+def scan_writes(rmap: RegisterMap, scan) -> tuple[list, list]:
+    """The writes that load the antenna scan ``scan`` (a manifest's ``scan``,
+    ``rast.model.contract.scan.scan_settings``), in two parts: the table
+    (SCAN_CTRL = 0 first: no channel sees it while it changes; PATTERN,
+    PATTERN_ADDR, the words), after which the host checks PATTERN_CRC
+    against the CRC-32 of the words, and the scan's start (SCAN_PERIOD,
+    SCAN_START, SCAN_CTRL with its mode and the restart). ``None``: the
+    block stares (SCAN_CTRL = 0)."""
+    a = rmap.addr
+    if scan is None:
+        return [(a("SCAN_CTRL"), 0)], []
+    table = scan["pattern"]
+    load = [(a("SCAN_CTRL"), 0), (a("PATTERN"), int(table["shift"]) | int(table["floor"]) << 16),
+            (a("PATTERN_ADDR"), 0)] + [(a("PATTERN_DATA"), int(w)) for w in table["words"]]
+    ctrl = (int(scan["mode"]) | int(scan["anticlockwise"]) << 2 | int(scan["auto"]) << 3
+            | int(scan["acp_log2"]) << 8 | SCAN_RESTART)
+    start = [(a("SCAN_PERIOD"), int(scan["period_samples"])), (a("SCAN_START"), int(scan["start_code"])),
+             (a("SCAN_CTRL"), ctrl)]
+    return load, start
+
+
+def pattern_crc(scan) -> int:
+    """What PATTERN_CRC reads after :func:`scan_writes`' table."""
+    return stream_crc32([int(w) for w in scan["pattern"]["words"]])
 
 
 def _load_streams(manifest, stream_dir, streams, values):
@@ -199,7 +246,7 @@ def stream_writes(rmap: RegisterMap, channel: int, base: int, words, increment: 
 
 def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None = None, *,
                                 stream_dir=None, streams=None, target: str = "block",
-                                playing=None) -> list:
+                                playing=None, with_scan: bool = True) -> list:
     """Register writes ``[(addr, value), ...]`` that load a manifest into a running block.
 
     The windmill of list position ``l`` goes to channel ``l``; the rest are
@@ -240,10 +287,18 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     (CTRL enable + swap: it plays its old stream until then, and goes on
     playing it if the block refuses the switch); the others switch at once.
     A channel's gain changes when written, its delay at APPLY (the end).
+
+    A block built with the antenna scan gets each channel's AZIMUTH and,
+    last, the scan (:func:`scan_writes`: the pattern, then the scan's start;
+    SCAN_CTRL = 0 for a manifest that stares) unless ``with_scan`` is False
+    (a loader that checks the pattern's CRC before the scan starts sends
+    them itself). A manifest that turns the antenna is refused by a block
+    without the scan.
     """
     contract = contract or ReplayContract(channels=len(manifest["registers"]["channels"]))
     rmap = register_map(contract)
     common, values = _channel_values(manifest, contract, target)
+    scan = _check_scan(manifest, contract)
     words = _load_streams(manifest, stream_dir, streams, values)
     w = []
     a = rmap.addr
@@ -259,6 +314,8 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
             w += stream_writes(rmap, ch, bases[ch], words[ch], v["inc"])
         w.append((a("GAIN", ch), v["gain"]))
         w.append((a("DELAY", ch), v["delay"]))
+        if contract.scan:
+            w.append((a("AZIMUTH", ch), v["azimuth"]))
         enable = CTRL_ENABLE if v["enable"] else 0
         if live and playing[ch] is not None and enable:
             w.append((a("CTRL", ch), enable | CTRL_SWAP))  # at its period boundary
@@ -274,6 +331,9 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
         w.append((a("DELAY", ch), 0))
     w.append((a("COMMON_DELAY"), common))
     w.append((a("APPLY"), 1))
+    if contract.scan and with_scan:
+        load, start = scan_writes(rmap, scan)
+        w += load + start
     return w
 
 
@@ -289,5 +349,5 @@ def manifest_channel_inits(manifest: dict, contract: ReplayContract, stream_dir=
     if words is None:
         raise ValueError("Channel initialisation needs the streams: give stream_dir or streams")
     bases = pool_layout([len(x) for x in words], contract.pool_words)
-    return [ChannelInit(tuple(words[i]), v["inc"], v["gain"], v["delay"], bool(v["enable"]), bases[i])
-            for i, v in enumerate(values)], common
+    return [ChannelInit(tuple(words[i]), v["inc"], v["gain"], v["delay"], bool(v["enable"]), bases[i],
+                        v["azimuth"]) for i, v in enumerate(values)], common

@@ -17,6 +17,9 @@ class ChannelInit:
     delay: int = 0
     enable: bool = False
     base: int = 0
+    #: AZIMUTH's reset (a block built with the scan): the turbine's azimuth
+    #: code, 2**16 a revolution clockwise from north.
+    azimuth: int = 0
 
     @property
     def length(self) -> int:

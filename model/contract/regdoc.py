@@ -2,7 +2,7 @@
 (``python -m rast.model.contract.regdoc > docs/registers.md``)."""
 
 from rast.model.contract.fixedpoint import ReplayContract, WRITE_STAGING, ACCEPT_LAG
-from rast.model.contract.regmap import RegisterMap, register_map, CHANNEL_BASE, CHANNEL_STRIDE
+from rast.model.contract.regmap import RegisterMap, register_map
 
 __all__ = ["markdown", "registers_doc"]
 
@@ -15,7 +15,7 @@ def markdown(rmap: RegisterMap) -> str:
         if r.channel not in (None, 0):
             continue
         name = r.name if r.channel is None else f"CH[l].{r.name}"
-        addr = f"{r.addr:#04x}" if r.channel is None else f"{r.addr:#04x} + {CHANNEL_STRIDE}*l"
+        addr = f"{r.addr:#04x}" if r.channel is None else f"{r.addr:#04x} + {rmap.channel_stride}*l"
         for f in r.fields:
             bits = f"{f.lsb + f.width - 1}:{f.lsb}" if f.width > 1 else f"{f.lsb}"
             lines.append(f"| {addr} | {name} | {f.name} | {bits} | {f.access} | "
@@ -59,7 +59,7 @@ Reads return the state between the same two steps: the stored values, the
 channels' CTRL.swap/bank and the sticky STATUS.overflow.
 
 {markdown(register_map(c))}
-Channel l (0..N-1) has its block at `{CHANNEL_BASE:#x} + {CHANNEL_STRIDE}*l`.
+Channel l (0..N-1) has its block at `{register_map(c).channel_base:#x} + {register_map(c).channel_stride}*l`.
 
 ## Loading a stream (no torn period)
 
@@ -136,7 +136,39 @@ while busy make its CRC-32 one of a mix. The read-back takes the host's turns
 at the SDRAM, so the channels' fetches keep their bound.
 `rast load --verify` does this for every stream it wrote
 (`rast.load.verify_pool`).
+
+## The antenna scan
+
+A block built with the scan (`CONFIG.scan` = 1, `rast build --scan`) has its
+registers at 0x10..0x1F, a ninth register per channel, AZIMUTH, and its
+channels' blocks from {_scan_map(c).channel_base:#x}, {_scan_map(c).channel_stride} apart (the other
+registers as above; STATUS has one more bit, `arp_lost`):
+
+{markdown(_scan_map(c))}
+Each channel's gain on a step is GAIN times the pattern's word at the
+offset (beam − AZIMUTH), rounded (`docs/antenna_scan.md`,
+`rast.model.contract.scan`); in stare mode it is GAIN. The beam is the one
+of the step's input sample: free running, it advances one sample a step
+(SCAN_PERIOD samples a revolution); following the radar, it counts the ACP
+input's pulses since the last ARP (pins in docs/bitstream.md).
+
+Loading the pattern (`rast load` does this for a config that turns):
+`SCAN_CTRL = 0` (stare: no channel sees the table while it changes),
+`PATTERN` (shift, floor), `PATTERN_ADDR = 0`, the 1024 words to
+PATTERN_DATA, then read PATTERN_CRC: if it is not the CRC-32 of the words
+sent, the table is written again (the scan stays off); if it is,
+`SCAN_PERIOD`, `SCAN_START` and `SCAN_CTRL` with the mode and `restart`.
 """
+
+
+def _scan_map(c: ReplayContract):
+    """The scan's registers and channel 0's AZIMUTH, alone."""
+    import dataclasses
+    from rast.model.contract.regmap import RegisterMap
+    sc = dataclasses.replace(c, scan=True)
+    full = register_map(sc)
+    return RegisterMap(sc, [r for r in full.registers
+                            if 0x10 <= r.addr < full.channel_base or (r.name == "AZIMUTH" and r.channel == 0)])
 
 
 def _pool_check_map(c: ReplayContract):

@@ -26,14 +26,23 @@ import numpy as np
 from rast.model.contract.fixedpoint import (ReplayContract, STREAM_WIDTH, GAIN_WIDTH, PHASE_FRAC_BITS,
                                             INTERPOLATIONS)
 from rast.model.contract.powerup import ChannelInit
+from rast.model.contract.scan import (AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_WIDTH, MAX_PATTERN_SHIFT,
+                                      ACP_MIN_LEARN, AZIMUTH_CODES)
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
-           "CHANNEL_STRIDE", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
+           "CHANNEL_STRIDE", "SCAN_CHANNEL_BASE", "SCAN_CHANNEL_STRIDE", "SCAN_RESTART", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
            "CRC32_POLY", "stream_crc32", "APPLIED_LSB"]
 
 ID_VALUE = 0x52415354          # "RAST"
 CHANNEL_BASE = 0x10
 CHANNEL_STRIDE = 8
+#: With the antenna scan the channels' blocks are 16 registers (AZIMUTH is
+#: the ninth) from 0x20 on, the scan's registers at 0x10..0x1F.
+SCAN_CHANNEL_BASE = 0x20
+SCAN_CHANNEL_STRIDE = 16
+#: SCAN_CTRL's command bit: restart the beam (free: at SCAN_START; acp: the
+#: count, the code and what was learned cleared).
+SCAN_RESTART = 1 << 31
 CTRL_ENABLE = 1 << 0
 CTRL_SWAP = 1 << 1
 CTRL_BANK = 1 << 2
@@ -97,6 +106,16 @@ class RegisterMap:
         self._by_addr = {r.addr: r for r in self.registers}
 
     @property
+    def channel_base(self) -> int:
+        """Address of channel 0's block."""
+        return SCAN_CHANNEL_BASE if self.contract.scan else CHANNEL_BASE
+
+    @property
+    def channel_stride(self) -> int:
+        """Addresses between two channels' blocks (a power of two)."""
+        return SCAN_CHANNEL_STRIDE if self.contract.scan else CHANNEL_STRIDE
+
+    @property
     def addr_width(self) -> int:
         return max(r.addr for r in self.registers).bit_length()
 
@@ -132,7 +151,7 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
     inits += [ChannelInit()] * (c.channels - len(inits))
     interp_code = INTERPOLATIONS.index(c.interpolation)
     config = (c.channels | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
-              | (int(c.pool == "sdram") << 11) | (c.slots << 16))
+              | (int(c.pool == "sdram") << 11) | (int(c.scan) << 12) | (c.slots << 16))
     regs = [
         Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
                  "identification"),
@@ -143,6 +162,9 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                         "1: 3-multiplier complex product"),
                                   Field("sdram", 11, 1, "ro", int(c.pool == "sdram"),
                                         "1: the stream pool is in SDRAM (POOL_WORDS of it)"),
+                                  Field("scan", 12, 1, "ro", int(c.scan),
+                                        "1: the antenna scan is built in (registers 0x10..0x1F, "
+                                        "AZIMUTH; channels from 0x20, 16 apart)"),
                                   Field("slots", 16, 7, "ro", c.slots,
                                         "M: fabric clocks per sample, channels per pipeline")),
                  f"elaboration parameters (reads {config:#x} here)"),
@@ -154,7 +176,11 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                   Field("underflow", 1, 1, "rc", 0,
                                         "a channel read a stream word that had not arrived from the pool "
                                         "since the last read (SDRAM pool: a fetch later than the "
-                                        "contract's bound; never with block RAM)")),
+                                        "contract's bound; never with block RAM)"),
+                                  *((Field("arp_lost", 2, 1, "ro", 0,
+                                           "the scan follows the radar and an ARP was missed (an ACP "
+                                           "past the revolution's count): the beam keeps turning at "
+                                           "the count in use; cleared by the next ARP"),) if c.scan else ())),
                  "sticky status, cleared by reading"),
         Register("APPLY", 0x04, (Field("delays", 0, 1, "wo", 0,
                                        "write 1: COMMON_DELAY and all channels' DELAY take effect in the same sample"),),
@@ -210,8 +236,11 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                                     "(valid once busy reads 0)"),),
                      "stream pool read-back (SDRAM pool)"),
         ]
+    if c.scan:
+        regs += _scan_registers()
+    channel_base, stride = (SCAN_CHANNEL_BASE, SCAN_CHANNEL_STRIDE) if c.scan else (CHANNEL_BASE, CHANNEL_STRIDE)
     for ch in range(c.channels):
-        base = CHANNEL_BASE + CHANNEL_STRIDE * ch
+        base = channel_base + stride * ch
         ini = inits[ch]
         maxd = c.max_tap
         regs += [
@@ -267,5 +296,60 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                                 "its initial stream's)"),),
                      "what the channel plays: a load is done when it reads the CRC sent", ch),
         ]
+        if c.scan:
+            regs.append(Register("AZIMUTH", base + 8, (
+                Field("azimuth", 0, AZIMUTH_BITS, "rw", ini.azimuth & (AZIMUTH_CODES - 1),
+                      "the turbine's azimuth, 2**16 a revolution clockwise from north; written before "
+                      "input k, from output k"),),
+                "the antenna's two-way pattern at (beam - AZIMUTH) scales GAIN", ch))
     return RegisterMap(c, regs)
+
+
+def _scan_registers() -> list:
+    """The antenna scan's registers (docs/antenna_scan.md; the rule:
+    ``rast.model.contract.scan``)."""
+    return [
+        Register("SCAN_CTRL", 0x10, (
+            Field("mode", 0, 2, "rw", 0, "0 stare (every channel at its GAIN), 1 free running, "
+                  "2 following the radar's ACP/ARP", clamp=(0, 2)),
+            Field("anticlockwise", 2, 1, "rw", 0, "free running: the beam turns anticlockwise"),
+            Field("auto", 3, 1, "rw", 0, "acp: learn the ACPs a revolution between two ARPs "
+                  f"(at least {ACP_MIN_LEARN}, none missed)"),
+            Field("acp_log2", 8, 5, "rw", 16, "acp without auto: 2**acp_log2 ACPs a revolution "
+                  "(12: 4096, 14: 16384, 16: 65536)", clamp=(8, 16)),
+            Field("restart", 31, 1, "wo", 0, "write 1: the beam restarts from the step this write "
+                  "lands before (free: at SCAN_START; acp: count, code and what was learned cleared)")),
+            "the beam: written before input k, from output k"),
+        Register("SCAN_PERIOD", 0x11, (
+            Field("samples", 0, 32, "rw", AZIMUTH_CODES, "free running: RTS samples a revolution, "
+                  "round(sample rate * 60 / abs(rpm))", clamp=(AZIMUTH_CODES, (1 << 32) - 1)),),
+            "the free-running beam's revolution"),
+        Register("SCAN_START", 0x12, (
+            Field("azimuth", 0, AZIMUTH_BITS, "rw", 0, "the beam's code a free restart loads"),),
+            "the free-running beam's start"),
+        Register("PATTERN", 0x13, (
+            Field("shift", 0, 3, "rw", 0, f"the table's step is 2**shift azimuth codes (0..{MAX_PATTERN_SHIFT})",
+                  clamp=(0, MAX_PATTERN_SHIFT)),
+            Field("floor", 16, PATTERN_WIDTH, "rw", 0, "the pattern's word beyond the table's span")),
+            "the two-way pattern: load it while SCAN_CTRL.mode is stare"),
+        Register("PATTERN_ADDR", 0x14, (
+            Field("addr", 0, PATTERN_INDEX_BITS, "rw", 0,
+                  "table entry; +1 (mod the table) after each PATTERN_DATA"),),
+            "the pattern table's write path: address"),
+        Register("PATTERN_DATA", 0x15, (
+            Field("word", 0, PATTERN_WIDTH, "wo", 0, "two-way amplitude, 2**15 = 0 dB, written at "
+                  "PATTERN_ADDR into every pipeline's table"),),
+            "the pattern table's write path: data"),
+        Register("PATTERN_CRC", 0x16, (
+            Field("crc", 0, 32, "ro", 0, "CRC-32 (zlib) of the PATTERN_DATA words written since the "
+                  "last PATTERN_ADDR write, each as a 32-bit word (the 16-bit word, zero above)"),),
+            "the pattern table's write path: what the host checks before the scan plays"),
+        Register("SCAN_STATUS", 0x17, (
+            Field("beam", 0, AZIMUTH_BITS, "ro", 0, "the beam's azimuth code now"),
+            Field("learned", 16, 1, "ro", 0, "acp with auto: a revolution's count has been learned")),
+            "the beam"),
+        Register("ACP_PER_REV", 0x18, (
+            Field("count", 0, 17, "ro", 1 << 16, "ACPs a revolution in use (acp mode)"),),
+            "the beam: what the radar's revolution was learned as"),
+    ]
 

@@ -44,8 +44,8 @@ from rast.model.contract.fixedpoint import round_half_up
 __all__ = ["AZIMUTH_BITS", "AZIMUTH_CODES", "PATTERN_INDEX_BITS", "PATTERN_ENTRIES",
            "PATTERN_WIDTH", "PATTERN_FRAC", "PATTERN_ONE", "MAX_PATTERN_SHIFT", "azimuth_code",
            "samples_per_revolution", "free_beam_codes", "acp_beam_code", "AcpTrack", "ACP_MIN_LEARN",
-           "ACP_UNLEARNED", "pattern_shift", "span_deg",
-           "PatternWords", "pattern_words", "pattern_lookup", "scanned_gain", "beam_codes"]
+           "ACP_UNLEARNED", "BeamGenerator", "pattern_shift", "span_deg",
+           "PatternWords", "pattern_words", "pattern_lookup", "scanned_gain", "beam_codes", "scan_settings"]
 
 AZIMUTH_BITS = 16
 AZIMUTH_CODES = 1 << AZIMUTH_BITS
@@ -130,6 +130,60 @@ class AcpTrack:
         return int(acp_beam_code(self.count, self.n))
 
 
+class BeamGenerator:
+    """The board's beam step by step, as its generator
+    (``rast.hdl.scan_generator.ScanGenerator``) makes it from the SCAN_*
+    registers and the ACP/ARP strobes: the replay model's.
+
+    :meth:`configure` takes the registers' values, :meth:`restart` is
+    SCAN_CTRL.restart, :meth:`event` an ARP and/or ACP strobe, :meth:`take`
+    the next steps' beams. ACP settings changed within a revolution, or
+    SCAN_PERIOD while the beam turns, are taken at the next restart (the
+    gateware's count, stepped by the old settings, may differ until then).
+    An ARP within ``ACP_MIN_CLOCKS`` fabric clocks after an ACP learns
+    nothing in the gateware (its division is not done); the model assumes
+    none comes that close."""
+
+    def __init__(self):
+        self.mode, self.anticlockwise, self.period, self.start = 0, False, AZIMUTH_CODES, 0
+        self.track = AcpTrack(ACP_UNLEARNED)
+        self.free_code, self.free_rem = 0, 0
+
+    def configure(self, mode: int, anticlockwise: bool, auto: bool, acp_log2: int, period: int, start: int):
+        self.mode, self.anticlockwise, self.period, self.start = mode, bool(anticlockwise), period, start
+        self.track.auto, self.track.fixed = bool(auto), 1 << acp_log2
+        if not auto:
+            self.track.n = self.track.fixed
+
+    def restart(self) -> None:
+        self.free_code, self.free_rem = self.start, 0
+        self.track.restart()
+
+    def event(self, arp: bool, acp: bool) -> None:
+        self.track.event(arp, acp)
+
+    @property
+    def per_rev(self) -> int:
+        return self.track.n
+
+    @property
+    def code(self) -> int:
+        """The beam's code now (SCAN_STATUS.beam)."""
+        return (self.free_code if self.mode == 1 else self.track.code if self.mode == 2 else 0)
+
+    def take(self, n: int) -> np.ndarray:
+        """The beams of the next ``n`` steps (the free beam advancing a sample each)."""
+        if self.mode != 1:
+            return np.full(n, self.code, dtype=np.int64)
+        p = self.period
+        modulus = p * AZIMUTH_CODES
+        pos = self.free_code * p + self.free_rem
+        step = -AZIMUTH_CODES if self.anticlockwise else AZIMUTH_CODES
+        beams = (pos + step * np.arange(n, dtype=np.int64)) % modulus // p
+        pos = (pos + step * n) % modulus
+        self.free_code, self.free_rem = pos // p, pos % p
+        return beams
+
 
 def span_deg(shift: int) -> float:
     """Half the table's span: offsets within ±this many degrees are looked up."""
@@ -198,3 +252,22 @@ def beam_codes(scan, sample_rate_hz: float, steps) -> np.ndarray:
     turns = scan.start_deg / 360.0 + scan.rpm / 60.0 * t
     count = np.mod(np.floor(turns * acp), acp).astype(np.int64)
     return acp_beam_code(count, acp)
+
+
+def scan_settings(scan, sample_rate_hz: float) -> dict:
+    """What a host loads into a block built with the scan for ``scan``
+    (``rast.model.physics.antenna.AntennaScan``): the SCAN_* and PATTERN
+    register values and the table (the manifest's ``scan``)."""
+    mode = {"stare": 0, "free": 1, "acp": 2}[scan.mode]
+    out = {"mode": mode, "anticlockwise": int(scan.rpm < 0), "auto": 0, "acp_log2": 16,
+           "period_samples": AZIMUTH_CODES, "start_code": int(azimuth_code(scan.start_deg))}
+    if scan.mode == "free":
+        out["period_samples"] = samples_per_revolution(scan.rpm, sample_rate_hz)
+    if scan.mode == "acp":
+        if scan.acp_per_rev == "auto":
+            out["auto"] = 1
+        else:
+            out["acp_log2"] = int(scan.acp_per_rev).bit_length() - 1
+    table = pattern_words(scan)
+    out["pattern"] = {"shift": table.shift, "floor": table.floor, "words": [int(w) for w in table.words]}
+    return out

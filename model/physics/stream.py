@@ -36,6 +36,7 @@ from rast.model.physics.config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Win
 from rast.model.physics.synthesis import ComputePool, Synthesis, synthesise_period
 from rast.model.physics.turbine import max_doppler_hz
 from rast.model.contract.regmap import stream_crc32
+from rast.model.contract.scan import azimuth_code, scan_settings
 
 __all__ = ["MIN_STREAM_WORDS", "MAX_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams", "EchoSum",
            "plan_stream", "stream_times", "quantise", "quantise_words", "build_farm_streams",
@@ -332,7 +333,8 @@ class FarmStreams:
             pool_words=fx.pool_words_for(sum(c["length"] for c in ch)),
             max_delay=fx.delay_depth(min(delays)) - 2,
             max_tap=max(2, fx.delay_depth(max(delays) - min(delays)) - 2),
-            interpolation=self.farm.interpolation, sample_rate_hz=round(self.farm.sample_rate_hz))
+            interpolation=self.farm.interpolation, sample_rate_hz=round(self.farm.sample_rate_hz),
+            scan=self.farm.scan.turning)
 
     def echo_sum(self, pulse_samples: int | None = None) -> EchoSum:
         """The loudest sum of overlapping echoes (:class:`EchoSum`) for pulses of
@@ -410,7 +412,16 @@ class FarmStreams:
                 / farm.sample_rate_hz,
                 "gain": s.gain_word,
                 "delay_samples": s.delay_samples,
+                # the turbine's azimuth code (AZIMUTH) where the antenna turns
+                **({"azimuth": int(azimuth_code(s.windmill.azimuth_deg))} if farm.scan.turning else {}),
             })
+        scan = {}
+        if farm.scan.turning:
+            sc = farm.scan
+            scan = {"scan": {"scan_mode": sc.mode, "scan_rpm": sc.rpm, "scan_start_deg": sc.start_deg,
+                             "acp_per_rev": sc.acp_per_rev, "beamwidth_deg": sc.beamwidth_deg,
+                             "sidelobe_db": sc.sidelobe_db,
+                             **scan_settings(sc, farm.sample_rate_hz)}}
         return {
             "format": "rast-manifest/2",
             "sample_rate_hz": farm.sample_rate_hz,
@@ -430,6 +441,7 @@ class FarmStreams:
             "windmills": windmills,
             "taps": self.taps,
             "registers": {"channels": channels},
+            **scan,
         }
 
 
