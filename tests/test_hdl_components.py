@@ -163,10 +163,11 @@ def test_output_fifo_keeps_order_and_flags_an_overrun(depth):
 
 def test_stream_pool_ecp5_register_trees():
     """A pool of several banks on ECP5: each group of GROUP_BITS slices has a
-    read address and a write enable, address and data of its own in kept
-    flip-flops (so synthesis cannot merge the copies back into one register
-    that drives every block RAM), behind a kept register per bank of the
-    write's address and data."""
+    read address, a write enable, address and data, and the read's bank hit
+    (which clears its data register) of its own in kept flip-flops (so
+    synthesis cannot merge the copies back into one register that drives
+    every block RAM), behind a kept register per bank of the write's address
+    and data."""
     from amaranth.back import rtlil
     banks = 5
     text = rtlil.convert(StreamPool(banks * POOL_BANK_WORDS, 4), platform=type("ECP5", (), {"family": "ecp5"})())
@@ -174,7 +175,7 @@ def test_stream_pool_ecp5_register_trees():
     groups = banks * slices // StreamPool.GROUP_BITS
     address_bits = (POOL_BANK_WORDS - 1).bit_length()
     assert text.count("cell \\DP16KD") == banks * slices
-    assert text.count("cell \\TRELLIS_FF") == (groups * (2 * address_bits + StreamPool.GROUP_BITS + 1)
+    assert text.count("cell \\TRELLIS_FF") == (groups * (2 * address_bits + StreamPool.GROUP_BITS + 1 + 1)
                                                + banks * (address_bits + slices))
     assert "attribute \\BEL" not in text   # no device named: no floorplan
 
