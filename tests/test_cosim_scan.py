@@ -72,46 +72,14 @@ def test_the_beam_follows_the_radar_s_pulses_bit_exact_in_verilator():
     assert rep["nonzero"] > T // 4
 
 
-FREE_CONFIG = """
-sample_rate = 20
-radar_frequency = 5350
-prf = 20000
-pulse_width = 10
-cpi = 10
-scan_mode = "free"
-scan_rpm = 600
-scan_start_deg = 20
-beamwidth_deg = 8
-sidelobe_db = -40
-
-[[windmill]]
-name = "east"
-range = 2.0
-azimuth = 45
-num_blades = 1
-rpm = 15
-num_rcs = 1
-radius = [26.0]
-rsc = [1.0]
-
-[[windmill]]
-name = "south"
-range = 3.0
-azimuth = 120
-num_blades = 1
-rpm = 25
-num_rcs = 1
-radius = [20.0]
-rsc = [1.0]
-"""
+CONFIG = Path(__file__).resolve().parent.parent / "examples" / "scan_two_turbines.toml"
 
 
 def test_rast_cosim_of_a_turning_config_and_its_ppi(tmp_path):
     """Half a revolution at 600 rpm through the Verilog, bit-exact; each
     turbine's gate is brightest in the dwell of its azimuth and the others
     lie under the pattern's floor; the PPI drawn from the RTL's gates."""
-    config = tmp_path / "scan.toml"
-    config.write_text(FREE_CONFIG)
+    config = CONFIG
     out = tmp_path / "out"
     rast = [sys.executable, "-m", "rast.cli"]
     r = subprocess.run(rast + ["cosim", str(config), "--seconds", "0.05", "--out", str(out)],

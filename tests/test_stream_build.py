@@ -138,3 +138,20 @@ def test_stream_says_where_echoes_add_up_beyond_full_scale(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "loudest echo sum for a full-scale pulse: +0.0 dBFS (one echo at delay" in out
     assert "saturate" not in out
+
+
+def test_a_turning_config_needs_a_build_with_the_scan(tmp_path, capsys):
+    """The streams of a turning config for a staring build are refused (the
+    board would light every turbine on every pulse); for a build with the
+    scan they are made, and the manifest carries the scan."""
+    config = ROOT / "examples" / "scan_two_turbines.toml"
+    staring = _report(tmp_path, pool_words=65536)
+    assert main(["stream", str(config), "--out", str(tmp_path / "o"), "--build", str(staring)]) == 2
+    assert "the build has no antenna scan: build it with --scan" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+    (tmp_path / "s").mkdir()
+    scanning = _report(tmp_path / "s", pool_words=65536, scan=True)
+    assert main(["stream", str(config), "--out", str(tmp_path / "o"), "--build", str(scanning)]) == 0
+    manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert manifest["scan"]["mode"] == 1 and [ch["azimuth"] for ch in manifest["registers"]["channels"]] == [
+        8192, 21845]

@@ -448,8 +448,9 @@ class FarmStreams:
 def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
     """``farm`` sized for the replay block ``contract`` describes: its stream
     depth becomes ``ram_depth``, its interpolation the farm's. Raises
-    :class:`ConfigError` when the config's sample rate is not the build's or
-    the farm has more windmills than the block has channels."""
+    :class:`ConfigError` when the config's sample rate is not the build's,
+    the farm has more windmills than the block has channels, or its antenna
+    turns and the block has no scan."""
     problems = []
     if contract.sample_rate_hz and round(farm.sample_rate_hz) != contract.sample_rate_hz:
         problems.append(f"'sample_rate' is {farm.sample_rate_mhz:g} MHz but the build replays at "
@@ -461,6 +462,9 @@ def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
     if len(farm.windmills) > contract.channels:
         problems.append(f"the farm has {len(farm.windmills)} windmills but the build has "
                         f"{contract.channels} channels")
+    if farm.scan.turning and not contract.scan:
+        problems.append(f"'scan_mode' is {farm.scan.mode!r} but the build has no antenna scan: build it "
+                        "with --scan (or set scan_mode = \"stare\")")
     if problems:
         raise ConfigError(problems)
     return dataclasses.replace(farm, ram_depth=contract.pool_words,
