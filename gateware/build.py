@@ -333,19 +333,66 @@ _NEXTPNR_SHOW = re.compile(r"(Max frequency for clock|Device utilisation|\s(TREL
                            r"Router1 time|Router2 time|Program finished|ERROR)")
 
 
-def _run(cmd, cwd, env, log_name, progress, show=None):
+#: The longest nextpnr's router1 may go without routing more of the design
+#: (its fewest arcs left not bettered) before the build gives up. At seeds 2
+#: and 3 of the 64-channel build it came down to tens of arcs and then went
+#: round them for an hour and more; one SDRAM build's seed finished after
+#: most of an hour of it (docs/bitstream.md, "Seeds that do not route").
+ROUTER_STALL_S = 1800.0
+_ROUTER1_PROGRESS = re.compile(r"^Info:\s+\d+ \|.*\|\s*(\d+)\|\s+[\d.]+\s+[\d.]+\|\s*$")
+
+
+class _RouterWatch:
+    """Kills nextpnr when router1's fewest arcs left has not fallen for
+    ``stall_s`` seconds (fed every line of its output)."""
+
+    def __init__(self, proc, stall_s):
+        import threading
+        self.proc, self.stall_s = proc, stall_s
+        self.best, self.since, self.stalled = None, None, False
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, daemon=True)
+        self._thread.start()
+
+    def line(self, text):
+        m = _ROUTER1_PROGRESS.match(text)
+        if m and (self.best is None or int(m.group(1)) < self.best):
+            self.best, self.since = int(m.group(1)), time.monotonic()
+
+    def _watch(self):
+        while not self._stop.wait(min(5.0, self.stall_s / 4)):
+            if self.since is not None and time.monotonic() - self.since > self.stall_s:
+                self.stalled = True
+                self.proc.kill()
+                return
+
+    def close(self):
+        self._stop.set()
+        self._thread.join()
+
+
+def _run(cmd, cwd, env, log_name, progress, show=None, router_stall_s=None):
     progress("$ " + " ".join(Path(cmd[0]).name if i == 0 else c for i, c in enumerate(cmd)))
     t0 = time.monotonic()
     with open(Path(cwd) / log_name, "w") as log:
         proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.STDOUT, text=True, bufsize=1)
+        watch = _RouterWatch(proc, router_stall_s) if router_stall_s else None
         tail = []
         for line in proc.stdout:
             log.write(line)
             tail = (tail + [line.rstrip()])[-30:]
+            if watch:
+                watch.line(line)
             if show is not None and show.search(line):
                 progress("  " + line.strip())
         rc = proc.wait()
+        if watch:
+            watch.close()
+    if watch and watch.stalled:
+        raise BuildError(f"{Path(cmd[0]).name}'s router stopped converging: {watch.best} arcs still unrouted "
+                         f"after {watch.stall_s / 60:g} minutes without progress (this placement seed's "
+                         f"congestion, docs/bitstream.md); build with another --seed")
     if rc != 0:
         raise BuildError(f"{Path(cmd[0]).name} failed (exit {rc}); last lines:\n" + "\n".join(tail))
     return time.monotonic() - t0
@@ -461,7 +508,8 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
            "--speed", str(platform.speed), "--json", f"{NAME}.json", "--lpf", f"{NAME}.lpf",
            "--textcfg", f"{NAME}.config", "--report", f"{NAME}.report.json",
            "--timing-allow-fail", "--seed", str(cfg.seed), *nextpnr_options(cfg.extra_nextpnr)]
-    times["pnr"] = round(_run(pnr, out, env, "nextpnr.out", progress, _NEXTPNR_SHOW), 1)
+    times["pnr"] = round(_run(pnr, out, env, "nextpnr.out", progress, _NEXTPNR_SHOW,
+                              router_stall_s=ROUTER_STALL_S), 1)
     times["pack"] = round(_run([env["ECPPACK"], "--compress", "--input", f"{NAME}.config",
                                 "--bit", f"{NAME}.bit"], out, env, "ecppack.out", progress), 1)
 

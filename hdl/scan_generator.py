@@ -69,26 +69,37 @@ class ScanGenerator(wiring.Component):
         return m
 
     def _free(self, m, code):
+        """The free beam: a step adds 2**16 to the remainder, or, when that
+        reaches ``period``, subtracts ``period - 2**16`` and carries into the
+        code (anticlockwise: the mirror). ``period - 2**16`` is kept in a
+        register, so that a step is one comparison and one adder beside it
+        (a step every clock at M = 1)."""
         s = self.settings
         rem = Signal(32)
-        up = Signal(33)
-        down = Signal(34)                   # two's complement: bit 33 set when negative
-        m.d.comb += [up.eq(rem + AZIMUTH_CODES), down.eq(rem - AZIMUTH_CODES)]
+        gap = Signal(32)                    # period - 2**16 (period >= 2**16: SCAN_PERIOD's clamp)
+        m.d.sync += gap.eq(s.period - AZIMUTH_CODES)
         with m.If(self.restart):
             m.d.sync += [code.eq(s.start), rem.eq(0)]
         with m.Elif(self.accept & (s.mode == SCAN_MODES["free"])):
             with m.If(~s.anticlockwise):
-                with m.If(up >= s.period):
-                    m.d.sync += [rem.eq(up - s.period), code.eq(code + 1)]
+                with m.If(rem >= gap):                          # rem + 2**16 >= period
+                    m.d.sync += [rem.eq(rem - gap), code.eq(code + 1)]
                 with m.Else():
-                    m.d.sync += rem.eq(up)
+                    m.d.sync += rem.eq(rem + AZIMUTH_CODES)
             with m.Else():
-                with m.If(down[33]):
-                    m.d.sync += [rem.eq(down + s.period), code.eq(code - 1)]
+                with m.If(rem[AZIMUTH_BITS:] == 0):             # rem - 2**16 < 0
+                    m.d.sync += [rem.eq(rem + gap), code.eq(code - 1)]
                 with m.Else():
-                    m.d.sync += rem.eq(down)
+                    m.d.sync += rem.eq(rem - AZIMUTH_CODES)
 
     def _acp(self, m, code):
+        """Following the radar. An event's update takes only values held in
+        registers: the ACP's next code and remainder are worked out ahead
+        (two clocks after the state last changed, :data:`ACP_MIN_CLOCKS`
+        before the next ACP), and an ARP's learned q and r come from the
+        division done on the count long before. An ACP within two clocks of
+        an ARP takes the values the ARP left for it (an ARP and an ACP a
+        clock or two apart after their synchronisers: the radar's pair)."""
         s = self.settings
         count = Signal(_COUNT_BITS)
         rem = Signal(17)
@@ -96,47 +107,55 @@ class ScanGenerator(wiring.Component):
         q_use = Signal(_Q_BITS + 8, init=AZIMUTH_CODES // ACP_UNLEARNED)
         r_use = Signal(17)
         cand_q, cand_r, cand_ready = self._divider(m, count)
-        # N, q and r in use: fixed by the settings, or learned
-        fixed_n = Signal(17)
-        m.d.comb += [fixed_n.eq(1 << s.acp_log2), self.per_rev.eq(Mux(s.auto, n_use, fixed_n))]
-        learn = Signal()
-        m.d.comb += learn.eq(self.arp & s.auto & ~self.arp_lost & (count >= ACP_MIN_LEARN) & cand_ready
-                             & (count <= AZIMUTH_CODES))
-        n_eff, q_eff, r_eff = Signal(17), Signal.like(q_use), Signal(17)
+        m.d.comb += self.per_rev.eq(Mux(s.auto, n_use, Const(1, 17) << s.acp_log2))
+        # N, q and r in use: the settings' unless auto, else what was learned
         with m.If(~s.auto):
-            m.d.comb += [n_eff.eq(fixed_n), q_eff.eq(Const(AZIMUTH_CODES, 17) >> s.acp_log2), r_eff.eq(0)]
-        with m.Elif(learn):
-            m.d.comb += [n_eff.eq(count), q_eff.eq(cand_q), r_eff.eq(cand_r)]
+            m.d.sync += [n_use.eq(Const(1, 17) << s.acp_log2), q_use.eq(Const(AZIMUTH_CODES, 17) >> s.acp_log2),
+                         r_use.eq(0)]
+        learn = Signal()
+        m.d.comb += learn.eq(self.arp & s.auto & ~self.arp_lost & cand_ready)
+        # the next ACP's code and remainder, worked out from the registers in two clocks
+        fresh = Signal(range(3))            # clocks since the state changed, up to 2
+        s_rem, s_code = Signal(18), Signal(AZIMUTH_BITS)
+        nx_rem, nx_code = Signal(17), Signal(AZIMUTH_BITS)
+        at_n = Signal()                     # count == N: an ACP now means an ARP was missed
+        m.d.sync += [s_rem.eq(rem + r_use), s_code.eq(code + q_use), at_n.eq(count == n_use),
+                     fresh.eq(Mux(fresh == 2, 2, fresh + 1))]
+        with m.If(s_rem >= n_use):
+            m.d.sync += [nx_rem.eq(s_rem - n_use), nx_code.eq(s_code + 1)]
         with m.Else():
-            m.d.comb += [n_eff.eq(n_use), q_eff.eq(q_use), r_eff.eq(r_use)]
-        m.d.sync += [n_use.eq(n_eff), q_use.eq(q_eff), r_use.eq(r_eff)]
-        with m.If(learn):
-            m.d.sync += self.learned.eq(1)
-        # the ARP first, then the ACP of the same clock
-        count0 = Signal.like(count)
-        code0 = Signal.like(code)
-        rem0 = Signal.like(rem)
-        lost0 = Signal()
-        m.d.comb += [count0.eq(Mux(self.arp, 0, count)), code0.eq(Mux(self.arp, 0, code)),
-                     rem0.eq(Mux(self.arp, 0, rem)), lost0.eq(~self.arp & self.arp_lost)]
-        step_rem = Signal(18)
-        m.d.comb += step_rem.eq(rem0 + r_eff)
+            m.d.sync += [nx_rem.eq(s_rem), nx_code.eq(s_code)]
+        # what the last ARP left for an ACP within two clocks after it
+        last_arp = Signal()
+        after_arp_q, after_arp_r = Signal.like(q_use), Signal(17)
+        new_q, new_r = Signal.like(q_use), Signal(17)
+        m.d.comb += [new_q.eq(Mux(learn, cand_q, q_use)), new_r.eq(Mux(learn, cand_r, r_use))]
         with m.If(self.restart):
             m.d.sync += [count.eq(0), code.eq(0), rem.eq(0), self.arp_lost.eq(0), self.learned.eq(0),
-                         n_use.eq(ACP_UNLEARNED), q_use.eq(AZIMUTH_CODES // ACP_UNLEARNED), r_use.eq(0)]
-        with m.Elif(self.acp):
-            m.d.sync += [count.eq(count0 + 1), self.arp_lost.eq(lost0 | (count0 == n_eff))]
-            with m.If(step_rem >= n_eff):
-                m.d.sync += [rem.eq(step_rem - n_eff), code.eq(code0 + q_eff + 1)]
+                         n_use.eq(ACP_UNLEARNED), q_use.eq(AZIMUTH_CODES // ACP_UNLEARNED), r_use.eq(0),
+                         fresh.eq(0), last_arp.eq(0)]
+        with m.Elif(self.arp | self.acp):
+            m.d.sync += fresh.eq(0)
+            with m.If(self.arp):
+                m.d.sync += [self.arp_lost.eq(0), last_arp.eq(1), after_arp_q.eq(new_q), after_arp_r.eq(new_r)]
+                with m.If(learn):
+                    m.d.sync += [n_use.eq(count), q_use.eq(cand_q), r_use.eq(cand_r), self.learned.eq(1)]
+                with m.If(self.acp):        # the ARP first: the revolution's first ACP
+                    m.d.sync += [count.eq(1), code.eq(new_q), rem.eq(new_r)]
+                with m.Else():
+                    m.d.sync += [count.eq(0), code.eq(0), rem.eq(0)]
             with m.Else():
-                m.d.sync += [rem.eq(step_rem), code.eq(code0 + q_eff)]
-        with m.Elif(self.arp):
-            m.d.sync += [count.eq(0), code.eq(0), rem.eq(0), self.arp_lost.eq(0)]
+                m.d.sync += [count.eq(count + 1), last_arp.eq(0)]
+                with m.If(last_arp & (fresh != 2)):
+                    m.d.sync += [code.eq(after_arp_q), rem.eq(after_arp_r)]
+                with m.Else():
+                    m.d.sync += [code.eq(nx_code), rem.eq(nx_rem), self.arp_lost.eq(self.arp_lost | at_n)]
 
     def _divider(self, m, count):
         """``divmod(2**16, count)`` for a count of at least ACP_MIN_LEARN
         (quotient below 2**9), restarted whenever the count changes: a
-        restoring division, one quotient bit a clock. Returns (q, r, ready)."""
+        restoring division, one quotient bit a clock. Returns (q, r, ready),
+        ``ready`` only for a count an ARP may learn (ACP_MIN_LEARN to 2**16)."""
         seen = Signal.like(count)
         left = Signal(range(_Q_BITS + 1))
         q = Signal(_Q_BITS)
@@ -145,9 +164,11 @@ class ScanGenerator(wiring.Component):
         trial = Signal(_COUNT_BITS + _Q_BITS + 1)
         ready = Signal()
         m.d.comb += trial.eq(r - divisor)
+        learnable = Signal()
         with m.If(count != seen):
             m.d.sync += [seen.eq(count), left.eq(_Q_BITS), q.eq(0), r.eq(AZIMUTH_CODES), ready.eq(0),
-                         divisor.eq(count << (_Q_BITS - 1))]
+                         divisor.eq(count << (_Q_BITS - 1)),
+                         learnable.eq((count >= ACP_MIN_LEARN) & (count <= AZIMUTH_CODES))]
         with m.Elif(left != 0):
             with m.If(~trial[-1]):
                 m.d.sync += [r.eq(trial), q.eq(Cat(1, q))]
@@ -155,5 +176,5 @@ class ScanGenerator(wiring.Component):
                 m.d.sync += q.eq(Cat(0, q))
             m.d.sync += [divisor.eq(divisor >> 1), left.eq(left - 1)]
         with m.Else():
-            m.d.sync += ready.eq(1)
+            m.d.sync += ready.eq(learnable)
         return q, r, ready

@@ -344,3 +344,25 @@ def test_the_readme_timing_table_heads_with_the_default_build():
     cfg = BuildConfig()
     c = cfg.contract()
     assert (c.channels, cfg.sample_rate_mhz, c.slots, cfg.clock_mhz, c.pool_words) == (64, 20, 8, 160, 65_536)
+
+
+def test_a_router_that_stops_converging_fails_the_build(tmp_path):
+    """nextpnr's router1 going round its last arcs (seeds 2 and 3 of the
+    64-channel build did for an hour) is killed once its fewest arcs left
+    has not fallen for ROUTER_STALL_S, and the build says so; one that keeps
+    routing is left alone."""
+    import sys
+    import time
+    from rast.gateware import build as b
+    lines = ["Info:    IterCnt |  w/ripup   wo/ripup |  w/r  wo/r |      arcs| batch(sec) total(sec)|",
+             "Info:       1000 |       10        990 |    0   990 |      5000|       0.10       0.10|",
+             "Info:       2000 |       20       1980 |    0   990 |        24|       0.10       0.20|"]
+    stuck = tmp_path / "stuck.py"
+    stuck.write_text(f"import time\nfor l in {lines!r}:\n    print(l, flush=True)\ntime.sleep(60)\n")
+    t0 = time.monotonic()
+    with pytest.raises(b.BuildError, match=r"router stopped converging: 24 arcs still unrouted .* another --seed"):
+        b._run([sys.executable, str(stuck)], tmp_path, None, "log", lambda m: None, router_stall_s=0.4)
+    assert time.monotonic() - t0 < 30
+    done = tmp_path / "done.py"
+    done.write_text(f"import time\nfor l in {lines!r}:\n    print(l, flush=True)\n    time.sleep(0.05)\n")
+    b._run([sys.executable, str(done)], tmp_path, None, "log", lambda m: None, router_stall_s=0.4)
