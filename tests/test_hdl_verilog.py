@@ -16,6 +16,7 @@ from rast.model.contract.fixedpoint import ReplayContract, pack_iq
      "--interpolation", "linear", "--cmult-form", "3mult"],
     ["--channels", "16", "--pool-words", "16", "--max-delay", "30", "--max-tap", "6",
      "--interpolation", "hold"],
+    ["--channels", "5", "--pool-words", "64", "--max-delay", "30", "--max-tap", "6", "--scan"],
 ])
 def test_verilog_lints_clean(tmp_path, args):
     out = tmp_path / "replay.v"
@@ -24,6 +25,7 @@ def test_verilog_lints_clean(tmp_path, args):
     assert text.startswith("// wind_farm_replay: RAST wind-farm replay block")
     assert f"channels={args[1]} " in text.splitlines()[1]
     assert "module wind_farm_replay(" in text
+    assert ("input acp" in text and " scan=1" in text.splitlines()[1]) == ("--scan" in args)
 
 
 def test_lint_fails_on_unwaived_warning(tmp_path):
