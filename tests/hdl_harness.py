@@ -13,8 +13,7 @@ import numpy as np
 from amaranth.sim import Simulator
 
 from rast.model.contract.fixedpoint import WRITE_STAGING, take_interval
-from rast.sim import scan_drive
-from rast.sim.scan_drive import pin_levels, pulse_events, merge
+from rast.sim.scan_drive import pin_levels, pulse_events, merge, model_replay  # noqa: F401 (the tests' model run)
 
 
 def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hold=False, pulses=()):
@@ -119,11 +118,6 @@ def run_replay(dut, xi, xq, ops=(), valid=(1,), ready=(1,), max_cycles=None, hol
     if pulses:
         done = merge(done, pulse_events(pulses, accepted_at, dut.acp_lead, dut.acp_filter_clocks))
     return (np.array(out_i, dtype=np.int64), np.array(out_q, dtype=np.int64), done)
-
-
-def model_replay(contract, inits, xi, xq, done_ops, common_delay=0):
-    """Replay inputs, the recorded accesses (and pulses) through the model."""
-    return scan_drive.model_replay(contract, inits, xi, xq, done_ops, common_delay)
 
 
 def assert_same(name, xi, xq, hi, hq, mi, mq):
