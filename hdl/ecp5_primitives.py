@@ -17,6 +17,10 @@ for cocotb and Verilator) and to vendor primitives on an ECP5 platform:
 * :func:`kept_lut`: a function of up to four bits in a LUT of its own
   (a ``LUT4`` instance), where logic synthesis would otherwise share a
   term with other logic and put a LUT level more on a path.
+* :func:`local_constant`: a constant in a flip-flop of its own, for the
+  distributed RAMs' pins nextpnr would otherwise route from one die-wide
+  constant net; :func:`lut_ram_depth`, the depth that leaves a distributed
+  RAM no constant address bit.
 
 Why (measured, ``docs/bitstream.md``, "Why the block RAMs and multipliers are
 instantiated"): Yosys did not place a following fabric register into these
@@ -32,6 +36,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 __all__ = ["RegisteredRAM", "RegisteredMultiplier", "kept_register", "kept_lut", "lut4_init", "is_ecp5",
+           "local_constant", "lut_ram_depth", "LUT_RAM_WORDS",
            "dp16kd_mode", "DP16KD_MODES", "BLOCK_RAM_SITES", "block_ram_rows",
            "delay_line_floorplan"]
 
@@ -125,6 +130,37 @@ def kept_register(m, platform, value, name, *, reset=False, init=0, domain="sync
             i_CLK=ClockSignal(domain), i_LSR=ResetSignal(domain) if reset else Const(0),
             i_DI=value[k], o_Q=q[k])
     return q
+
+
+#: Words of one distributed RAM primitive (``TRELLIS_DPR16X4``).
+LUT_RAM_WORDS = 16
+
+
+def lut_ram_depth(words: int) -> int:
+    """The depth to give a distributed RAM of at least ``words`` words: a
+    power of two and no less than LUT_RAM_WORDS, so that every address pin
+    of its primitives is driven by an address bit (a RAM of 8 words ties
+    its primitives' fourth address pin to the constant net, see
+    :func:`local_constant`); the primitives are as many either way."""
+    return max(LUT_RAM_WORDS, 1 << max(0, words - 1).bit_length())
+
+
+def local_constant(m, platform, value, width, name):
+    """``value`` (``width`` bits) for a group of distributed RAMs' input pins,
+    on ECP5 held by flip-flops of their own (set at power-up, never loaded
+    with anything else); elsewhere the constant itself.
+
+    nextpnr's ECP5 packer folds a constant into a LUT's function or a block
+    RAM's tie-offs, but routes the constant inputs of distributed RAMs (an
+    always-on write enable, an address bit above the RAM's depth) from one
+    die-wide net of its constant driver: 10,248 of the 11,894 pins on those
+    nets in the 64-channel build, the nets router1 re-routed most in the
+    end-games of its slow seeds (docs/bitstream.md, "The constant nets"). A
+    flip-flop per RAM group makes each a net beside its RAMs, like their
+    address counters'."""
+    if not is_ecp5(platform):
+        return Const(value, width)
+    return kept_register(m, platform, Const(value, width), name, init=value)
 
 
 def lut4_init(fn, inputs=4):

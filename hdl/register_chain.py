@@ -7,6 +7,8 @@ from amaranth.hdl import Signal, Mux, Array
 from amaranth.lib import data
 from amaranth.lib.memory import Memory
 
+from .ecp5_primitives import local_constant, lut_ram_depth
+
 __all__ = ["delayed", "ring_delay", "cleared", "select_registered", "RAM_DELAY_MIN"]
 
 
@@ -24,7 +26,7 @@ def delayed(m, sig, n, name, *, data=False):
 RAM_DELAY_MIN = 3
 
 
-def ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None):
+def ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None, platform=None):
     """``sig`` delayed by ``n`` clocks, as a chain of ``n`` registers whose
     power-up values are ``inits`` (the first register's first) would delay it.
 
@@ -38,6 +40,9 @@ def ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None):
     ``clear``: where 1, the output is 0 in the next clock instead (the last
     register's synchronous reset), so that logic reading the output needs
     no multiplexer after its own arithmetic.
+    ``platform``: on ECP5 the RAM's write enable is a flip-flop of its own
+    (``local_constant``) and its depth at least a primitive's 16 words, so
+    that none of its pins is on nextpnr's die-wide constant net.
 
     Returns ``(output, registers)``: the registers of a short chain (all of
     them but the input and output registers are in the RAM otherwise)."""
@@ -53,9 +58,9 @@ def ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None):
     if input_reg:
         first = Signal(layout, init=inits[0], name=f"{name}_in")
         m.d.sync += first.eq(sig)
-        out, regs = ring_delay(m, first, n - 1, inits[1:], name, clear=clear)
+        out, regs = ring_delay(m, first, n - 1, inits[1:], name, clear=clear, platform=platform)
         return out, [first, *regs]
-    depth = 1 << (n - 1).bit_length()
+    depth = lut_ram_depth(n)             # more than the n - 1 words in flight
     const = (lambda v: layout.const(v)) if isinstance(layout, data.Layout) else (lambda v: v)
     # the word read in clock k (k = 1 .. n-1 after reset) is what the chain's
     # end would show then: the power-up value of register n - k
@@ -72,7 +77,8 @@ def ring_delay(m, sig, n, inits, name, *, input_reg=False, clear=None):
     rptr = Signal(range(depth), init=(1 - n) % depth, name=f"{name}_rptr")
     m.d.sync += [ptr.eq(ptr + 1), rptr.eq(rptr + 1)]
     out = Signal(layout, init=inits[n - 1], name=f"{name}_out")
-    m.d.comb += [wp.en.eq(1), wp.addr.eq(ptr), wp.data.eq(sig), rp.addr.eq(rptr)]
+    m.d.comb += [wp.en.eq(local_constant(m, platform, 1, 1, f"{name}_we")), wp.addr.eq(ptr),
+                 wp.data.eq(sig), rp.addr.eq(rptr)]
     m.d.sync += out.eq(cleared(rp.data, clear))
     return out, [out]
 

@@ -10,7 +10,7 @@ from amaranth.lib.wiring import In, Out
 from rast.model.contract.regmap import RegisterMap, CRC32_POLY, STORED, SCAN_RESTART
 from rast.model.contract.fixedpoint import STREAM_WIDTH, REGISTER_STAGING
 from rast.model.contract.scan import AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_WIDTH
-from .ecp5_primitives import kept_register
+from .ecp5_primitives import kept_register, local_constant, lut_ram_depth
 from .scan_generator import SCAN_SETTINGS
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
@@ -521,7 +521,7 @@ class RegisterFile(wiring.Component):
     def _slot_rams(self, env):
         """The per-channel fields in distributed RAMs, one per field and group of
         channels, and the engine's read of them by slot."""
-        m, rmap, bus, decoded, decoded_bit = env.m, env.rmap, env.bus, env.decoded, env.decoded_bit
+        m, platform, rmap, bus, decoded, decoded_bit = env.m, env.platform, env.rmap, env.bus, env.decoded, env.decoded_bit
         landing, land_field, group_hit = env.landing, env.land_field, env.group_hit
         # Per group, RAM_FIELDS in distributed RAMs, one per field, by slot
         # (channel groups[g][s] at s), written in the clock a flip-flop would
@@ -569,10 +569,20 @@ class RegisterFile(wiring.Component):
             resets = [0] * D
             for s, ch in enumerate(members):
                 resets[s] = rmap.reg(reg_name, ch).field(field_name).reset
-            mem = Memory(shape=width, depth=D, init=resets, attrs={"ram_style": "distributed"})
+            # (a primitive's 16 words, the address bits above the slot's from
+            # a flip-flop beside the RAMs: ``local_constant``)
+            depth = lut_ram_depth(D)
+            mem = Memory(shape=width, depth=depth, init=resets + [0] * (depth - D),
+                         attrs={"ram_style": "distributed"})
             m.submodules[f"ram_{name}_g{g}"] = mem
+            high_bits = (depth - 1).bit_length() - slot_bits
+            high = local_constant(m, platform, 0, high_bits, f"ram_{name}_high_g{g}") if high_bits else None
+
+            def address(slot):
+                assert len(Value.cast(slot)) == slot_bits
+                return Cat(slot, high) if high is not None else slot
             wp = mem.write_port()
-            m.d.comb += [wp.en.eq(w_en), wp.addr.eq(w_slot), wp.data.eq(data_in)]
+            m.d.comb += [wp.en.eq(w_en), wp.addr.eq(address(w_slot)), wp.data.eq(data_in)]
             # the slots unwritten since reset, and the same a clock ahead,
             # from the landing's inputs (from the landing's registers, the
             # write enable -> the next fresh bits -> the engine's
@@ -584,7 +594,7 @@ class RegisterFile(wiring.Component):
 
             def raw_read(slot):
                 rp = mem.read_port(domain="comb")
-                m.d.comb += rp.addr.eq(slot)
+                m.d.comb += rp.addr.eq(address(slot))
                 return rp.data
             return raw_read, fresh, fresh_ahead, Array(Const(v, width) for v in resets), resets
 

@@ -316,3 +316,48 @@ def test_parameter_errors():
         RegisteredRAM(4, 16384, sites=["X4/Y22/EBR0"])
     with pytest.raises(ValueError, match=r"^Operand A width must be an integer in \[1, 18\], not 19$"):
         RegisteredMultiplier(19, 16)
+
+
+def _lut_ram_constant_pins(m, ports, tmp_path):
+    """Through synth_ecp5: the distributed RAMs' address and write-enable pins
+    tied to a constant (which nextpnr routes from one die-wide net), and how
+    many such RAMs there are."""
+    import json
+    import subprocess
+    from rast.gateware.build import tool_env
+    (tmp_path / "top.il").write_text(rtlil.convert(m, ports=ports))
+    env = tool_env()
+    subprocess.run([env["YOSYS"], "-q", "-p", "read_rtlil top.il; synth_ecp5 -top top -json top.json"],
+                   cwd=tmp_path, env=env, check=True, capture_output=True)
+    cells = json.loads((tmp_path / "top.json").read_text())["modules"]["top"]["cells"].values()
+    rams = [c for c in cells if c["type"] == "TRELLIS_DPR16X4"]
+    tied = [(port, bit) for c in rams for port, bits in c["connections"].items()
+            if port in ("RAD", "WAD", "WRE") for bit in bits if bit in ("0", "1")]
+    return tied, len(rams)
+
+
+@pytest.mark.parametrize("platform", [None, FakeECP5()], ids=["generic", "ecp5"])
+def test_ring_delay_rams_have_no_constant_pins_on_ecp5(platform, tmp_path):
+    """A state ring of 7 clocks (the 64-channel build's M = 8) in distributed
+    RAM: its 16 words (``lut_ram_depth``; 8 would do) leave no address pin
+    constant; its write enable, always on, is the constant generically and
+    on ECP5 a flip-flop of its own (``local_constant``), so that no pin of
+    the RAMs is on the constant net there."""
+    from amaranth.hdl import Module, Signal
+    from rast.hdl.register_chain import ring_delay
+    m = Module()
+    a = Signal(8)
+    out, _ = ring_delay(m, a, 7, [0] * 7, "ring", input_reg=True, platform=platform)
+    o = Signal(8)
+    m.d.comb += o.eq(out)
+    tied, rams = _lut_ram_constant_pins(m, [a, o], tmp_path)
+    assert rams >= 2
+    if platform is None:
+        assert tied and {port for port, _ in tied} == {"WRE"}
+    else:
+        assert tied == []
+
+
+def test_lut_ram_depth():
+    from rast.hdl.ecp5_primitives import lut_ram_depth
+    assert [lut_ram_depth(n) for n in (1, 2, 7, 8, 9, 16, 17, 33)] == [16, 16, 16, 16, 16, 16, 32, 64]

@@ -140,9 +140,9 @@ class FirMac(wiring.Component):
             acc_hi = Signal(FIR_ACC_WIDTH - ACC_LOW_BITS, name=f"fir_acc_hi_{part}", reset_less=True)
             if M > 1:
                 prev_lo, _ = ring_delay(m, acc_lo, M - 1, [0] * (M - 1), f"fir_accs_lo_{part}",
-                                         clear=fmul.valid & fmul.first)
+                                         clear=fmul.valid & fmul.first, platform=platform)
                 prev_hi, _ = ring_delay(m, acc_hi, M - 1, [0] * (M - 1), f"fir_accs_hi_{part}",
-                                         clear=fprod.valid & fprod.first)
+                                         clear=fprod.valid & fprod.first, platform=platform)
             else:
                 prev_lo = cleared(acc_lo, fprod.valid & fprod.first)
                 prev_hi = cleared(acc_hi, fhigh.valid & fhigh.first)

@@ -528,7 +528,8 @@ class SlotState(wiring.Component):
         ring_len = max(1, M - 1)
         ring_inits = [init_at((j + 2) % M) for j in range(ring_len - 1)] + [init_at(0)]
         # (input_reg: the update's end into its RAM was 9.3 ns at 64 channels)
-        last, regs = ring_delay(m, nxt, ring_len, ring_inits, "st_ring", input_reg=True)
+        last, regs = ring_delay(m, nxt, ring_len, ring_inits, "st_ring", input_reg=True,
+                                 platform=platform)
         m.d.comb += head.eq(last)
         if ring_len < RAM_DELAY_MIN:
             # the copy of the head's carry for ``left - carry`` (above): the
