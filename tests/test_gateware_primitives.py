@@ -27,6 +27,18 @@ def _rtlil(dut, platform):
     return rtlil.convert(dut, platform=platform)
 
 
+def _synth_ecp5(tmp_path, text):
+    """RTLIL ``text`` of a module ``top`` through synth_ecp5 into
+    ``tmp_path/top.json``; returns the tools' environment."""
+    import subprocess
+    from rast.gateware.build import tool_env
+    (tmp_path / "top.il").write_text(text)
+    env = tool_env()
+    subprocess.run([env["YOSYS"], "-q", "-p", "read_rtlil top.il; synth_ecp5 -top top -json top.json"],
+                   cwd=tmp_path, env=env, check=True, capture_output=True)
+    return env
+
+
 def test_mode_choice():
     assert dp16kd_mode(32, 8192) == (2, 16)
     assert dp16kd_mode(32, 4096) == (4, 8)
@@ -177,15 +189,10 @@ def test_ram_sites_are_the_85f_bels_nextpnr_places_at(tmp_path):
     block_ram_rows are the device's bels and nextpnr honours them."""
     import json
     import subprocess
-    from rast.gateware.build import tool_env
     platform = type("ECP5", (), {"family": "ecp5", "device": "LFE5U-85F"})()
     rows = block_ram_rows(platform)
     sites = [rows[0][0], rows[1][17], rows[2][34], rows[3][51]]
-    text = _rtlil(RegisteredRAM(4, 16384, sites=sites, continuous=True), platform)
-    (tmp_path / "top.il").write_text(text)
-    env = tool_env()
-    subprocess.run([env["YOSYS"], "-q", "-p", "read_rtlil top.il; synth_ecp5 -top top -json top.json"],
-                   cwd=tmp_path, env=env, check=True, capture_output=True)
+    env = _synth_ecp5(tmp_path, _rtlil(RegisteredRAM(4, 16384, sites=sites, continuous=True), platform))
     subprocess.run([env["NEXTPNR_ECP5"], "--85k", "--package", "CABGA381", "--json", "top.json",
                     "--no-route", "--write", "placed.json", "--timing-allow-fail"],
                    cwd=tmp_path, env=env, check=True, capture_output=True)
@@ -323,12 +330,7 @@ def _lut_ram_constant_pins(m, ports, tmp_path):
     tied to a constant (which nextpnr routes from one die-wide net), and how
     many such RAMs there are."""
     import json
-    import subprocess
-    from rast.gateware.build import tool_env
-    (tmp_path / "top.il").write_text(rtlil.convert(m, ports=ports))
-    env = tool_env()
-    subprocess.run([env["YOSYS"], "-q", "-p", "read_rtlil top.il; synth_ecp5 -top top -json top.json"],
-                   cwd=tmp_path, env=env, check=True, capture_output=True)
+    _synth_ecp5(tmp_path, rtlil.convert(m, ports=ports))
     cells = json.loads((tmp_path / "top.json").read_text())["modules"]["top"]["cells"].values()
     rams = [c for c in cells if c["type"] == "TRELLIS_DPR16X4"]
     tied = [(port, bit) for c in rams for port, bits in c["connections"].items()
