@@ -906,12 +906,15 @@ class RegisterFile(wiring.Component):
                 raw_read, fresh, reset_of = ram_reads[g][name]
                 rd_slot = {what: kept_register(m, platform, rd_slot_of, f"rd_slot_{name}_{what}_g{g}")
                            for what in ("use_reset", "reset", "ram")}
-                parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}")
+                # data, read out only under the read's hit (reset): no reset
+                # (the reset global into ``rd_gain_g1``'s logic was the latest
+                # path of the 64-channel build at seed 3, 6.7 ns)
+                parts_of = [landing(v, Value.cast(v).shape(), f"rd_{name}_{what}_g{g}", data=True)
                             for v, what in zip((fresh.bit_select(rd_slot["use_reset"], 1),
                                                 reset_of[rd_slot["reset"]], raw_read(rd_slot["ram"])),
                                                ("use_reset", "reset", "ram"))]
                 word = Mux(*parts_of)
-                word = landing(word, word.shape(), f"rd_{name}_g{g}")
+                word = landing(word, word.shape(), f"rd_{name}_g{g}", data=True)
                 ram_words.append((f"{name}_g{g}", g,
                                   lambda op, in_ram=in_ram, offset=offset: in_ram & (op.addr[:stride_bits] == offset),
                                   (word.as_unsigned() << f.lsb)[:32]))
@@ -940,7 +943,9 @@ class RegisterFile(wiring.Component):
         ``end`` (SELECT_LEVELS registered levels). 0 when the access is no
         read or addresses none of ``words`` ((name, unit, reads, word) each,
         ``reads`` the word's address or fn(op): the access is of this word;
-        ``at(unit, k)``: stage k as the word's group of channels sees it)."""
+        ``at(unit, k)``: stage k as the word's group of channels sees it).
+        The selected words' registers have no reset: the bus takes them only
+        under ``r_valid``, and the hits that select them are reset."""
         group = 8            # 16 words ORed into a register: 6.5 ns at 16 channels, 100 MS/s
         predecoded = {}
 
@@ -964,7 +969,7 @@ class RegisterFile(wiring.Component):
             tag = _unit_tag(unit)
             firsts = []
             for g in range(0, len(unit_words), group):
-                v = Signal(32, name=f"rd{delay}_{tag}_{g // group}")
+                v = Signal(32, name=f"rd{delay}_{tag}_{g // group}", reset_less=True)
                 sel = Const(0, 32)
                 for name, _, reads, w in unit_words[g:g + group]:
                     # the address compare a clock earlier, in a register (the
@@ -999,7 +1004,7 @@ class RegisterFile(wiring.Component):
             # a group's words, then all groups' (all first-level registers
             # ORed into one was a latest path of the 64-channel build, about
             # 75 of them, 6.3 ns)
-            u = Signal(32, name=f"rd{delay}_{tag}")
+            u = Signal(32, name=f"rd{delay}_{tag}", reset_less=True)
             m.d.sync += u.eq(_or(firsts))
             per_unit.append(u)
         # four groups' words to a register, then all (all groups' words
@@ -1007,13 +1012,13 @@ class RegisterFile(wiring.Component):
         # build, 5.2-5.6 ns)
         quads = []
         for q in range(0, len(per_unit), 4):
-            v = Signal(32, name=f"rd{delay}_q{q // 4}")
+            v = Signal(32, name=f"rd{delay}_q{q // 4}", reset_less=True)
             m.d.sync += v.eq(_or(per_unit[q:q + 4]))
             quads.append(v)
-        out = Signal(32, name=f"rd{delay}_all")
+        out = Signal(32, name=f"rd{delay}_all", reset_less=True)
         m.d.sync += out.eq(_or(quads))
         for k in range(delay + self.SELECT_LEVELS, end):
-            nxt = Signal(32, name=f"rd{delay}_d{k}")
+            nxt = Signal(32, name=f"rd{delay}_d{k}", reset_less=True)
             m.d.sync += nxt.eq(out)
             out = nxt
         return out
