@@ -72,7 +72,7 @@ def _default_build_fit(farm_streams) -> str:
     or the first thing that does not fit."""
     import dataclasses
     from rast.gateware.build import BuildConfig
-    from rast.model.contract.loadplan import manifest_to_register_writes, pool_layout
+    from rast.model.contract.loadplan import channel_regions, manifest_to_register_writes, pool_layout
     cfg = BuildConfig()
     c = dataclasses.replace(cfg.contract(), sample_rate_hz=round(cfg.sample_rate_mhz * 1e6))
     what = (f"the default bitstream ({c.channels} channels, {cfg.sample_rate_mhz:g} MS/s, a stream pool "
@@ -80,7 +80,8 @@ def _default_build_fit(farm_streams) -> str:
     manifest = farm_streams.manifest()
     try:
         manifest_to_register_writes(manifest, c, target="board")
-        pool_layout([ch["length"] for ch in manifest["registers"]["channels"]], c.pool_words)
+        channels = manifest["registers"]["channels"]
+        pool_layout([ch["length"] for ch in channels], c.pool_words, channel_regions(channels))
     except ValueError as error:
         return f"does not fit {what}: {error}"
     return f"fits {what}"
@@ -114,6 +115,9 @@ def cmd_stream(args) -> int:
         raise UserError(f"cannot write into {args.out}: {error.strerror or error}") from None
     _print_streams(farm_streams)
     _print_synthesis(farm_streams)
+    sharing = farm_streams.sharing_summary()
+    if sharing:
+        print(sharing)
     for warning in farm_streams.warnings:
         print(f"rast stream: warning: {warning}", file=sys.stderr)
     if farm.scan.turning:

@@ -12,7 +12,7 @@ from rast.model.contract.regmap import (register_map, stream_crc32, RegisterMap,
                                         SCAN_RESTART)
 from rast.model.contract.scan import PATTERN_ENTRIES, PATTERN_ONE, AZIMUTH_CODES
 
-__all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "free_region", "stream_writes",
+__all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "channel_regions", "free_region", "stream_writes",
            "NoRoomBeside", "manifest_to_register_writes", "manifest_channel_inits"]
 
 
@@ -180,16 +180,36 @@ def _load_streams(manifest, stream_dir, streams, values):
     return words
 
 
-def pool_layout(lengths, pool_words: int) -> list:
+def pool_layout(lengths, pool_words: int, regions=None) -> list:
     """Pool addresses of streams of ``lengths`` words placed one after the
-    other from address 0 (a full load); refuses streams that do not fit."""
-    bases, at = [], 0
-    for n in lengths:
-        bases.append(at)
-        at += int(n)
+    other from address 0 (a full load); refuses streams that do not fit.
+    ``regions`` (per stream ``None`` or ``(key, offset, words)``, see
+    :func:`channel_regions`): the streams of one key share a region of
+    ``words`` words placed where its first stream comes, each ``offset``
+    words into it (streams shared between alike turbines,
+    ``rast.model.physics.sharing``)."""
+    bases, at, placed = [], 0, {}
+    for k, n in enumerate(lengths):
+        region = regions[k] if regions else None
+        if region is None:
+            bases.append(at)
+            at += int(n)
+            continue
+        key, offset, words = region
+        if key not in placed:
+            placed[key] = at
+            at += int(words)
+        bases.append(placed[key] + int(offset))
     if at > pool_words:
         raise ValueError(f"Streams need {at} words together but the stream pool holds {pool_words}")
     return bases
+
+
+def channel_regions(channels) -> list:
+    """Per manifest channel entry, the shared region its stream lies in
+    (``pool_region``: ``(stream, offset, words)``), or None."""
+    return [(c["pool_region"]["stream"], int(c["pool_region"]["offset"]), int(c["pool_region"]["words"]))
+            if "pool_region" in c else None for c in channels]
 
 
 def free_region(in_use, length: int, pool_words: int) -> int:
@@ -211,22 +231,30 @@ class NoRoomBeside(ValueError):
     """The new streams do not fit in the pool beside the streams playing."""
 
 
-def _live_layout(lengths, playing, pool_words: int) -> list:
+def _live_layout(lengths, playing, pool_words: int, regions=None) -> list:
     """Pool addresses for streams of ``lengths`` (one per channel) that leave
     every stream in ``playing`` (per channel ``(base, length)`` or ``None``)
     untouched, as each channel plays its old stream until it switches; the
-    new streams do not overlap each other either. Raises :class:`NoRoomBeside`."""
+    new streams do not overlap each other either (a shared region, see
+    :func:`pool_layout`, is placed once). Raises :class:`NoRoomBeside`."""
     in_use = [r for r in playing if r is not None]
-    bases = []
+    bases, placed = [], {}
     for ch, n in enumerate(lengths):
+        key, offset, words = (regions[ch] if regions and regions[ch] else (None, 0, n))
+        if key in placed:
+            bases.append(placed[key] + offset)
+            continue
         try:
-            bases.append(free_region(in_use, n, pool_words))
+            start = free_region(in_use, words, pool_words)
         except ValueError:
             old = sum(r[1] for r in playing if r is not None)
             raise NoRoomBeside(
                 f"the new streams ({sum(lengths)} words) do not fit beside the {old} words playing "
-                f"in the pool of {pool_words} words (no {n} free words for channel {ch})") from None
-        in_use.append((bases[-1], n))
+                f"in the pool of {pool_words} words (no {words} free words for channel {ch})") from None
+        in_use.append((start, words))
+        if key is not None:
+            placed[key] = start
+        bases.append(start + offset)
     return bases
 
 
@@ -303,11 +331,12 @@ def manifest_to_register_writes(manifest: dict, contract: ReplayContract | None 
     w = []
     a = rmap.addr
     live = words is not None and playing is not None
+    regions = channel_regions(manifest["registers"]["channels"])
     if live:
         playing = list(playing) + [None] * (contract.channels - len(playing))
-        bases = _live_layout([len(x) for x in words], playing, contract.pool_words)
+        bases = _live_layout([len(x) for x in words], playing, contract.pool_words, regions)
     elif words is not None:
-        bases = pool_layout([len(x) for x in words], contract.pool_words)
+        bases = pool_layout([len(x) for x in words], contract.pool_words, regions)
         w += [(a("CTRL", ch), 0) for ch in range(contract.channels)]
     for ch, v in enumerate(values):
         if words is not None:
@@ -348,6 +377,7 @@ def manifest_channel_inits(manifest: dict, contract: ReplayContract, stream_dir=
     words = _load_streams(manifest, stream_dir, streams, values)
     if words is None:
         raise ValueError("Channel initialisation needs the streams: give stream_dir or streams")
-    bases = pool_layout([len(x) for x in words], contract.pool_words)
+    bases = pool_layout([len(x) for x in words], contract.pool_words,
+                        channel_regions(manifest["registers"]["channels"]))
     return [ChannelInit(tuple(words[i]), v["inc"], v["gain"], v["delay"], bool(v["enable"]), bases[i],
                         v["azimuth"]) for i, v in enumerate(values)], common

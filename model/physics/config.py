@@ -25,7 +25,7 @@ import numpy as np
 from rast.model.physics.antenna import ACP_COUNTS, SCAN_MODES, AntennaScan, read_pattern_csv
 
 __all__ = ["ConfigError", "BladeFlash", "WeightTable", "Wire", "Tower", "Radar", "RangeCell",
-           "Windmill", "Farm", "read_config_file", "validate_config", "SPEED_OF_LIGHT_M_S", "LIMITS"]
+           "Windmill", "StreamSharing", "Farm", "read_config_file", "validate_config", "SPEED_OF_LIGHT_M_S", "LIMITS"]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
 
@@ -159,6 +159,18 @@ class Windmill:
 
 
 @dataclass(frozen=True)
+class StreamSharing:
+    """Streams shared between alike turbines (``rast.model.physics.sharing``):
+    turbines whose echoes differ only by the blades' start angle play one
+    stream from their own start word; with ``aspect_tolerance_deg`` also
+    those whose rotor angle is that close to the stream's, each only if its
+    replay SFDR, measured, is at least ``min_sfdr_db``."""
+    enabled: bool = False               # ``share_streams``
+    aspect_tolerance_deg: float = 0.0   # ``share_aspect_deg``: rotor angles this close may share (degrees)
+    min_sfdr_db: float = 70.0           # ``share_min_sfdr_db``: the replay SFDR an aspect-shared turbine keeps
+
+
+@dataclass(frozen=True)
 class Farm:
     """A wind farm seen by one radar and replayed by one RTS."""
     sample_rate_mhz: float
@@ -181,6 +193,8 @@ class Farm:
     #: The antenna's scan and pattern (``scan_mode`` and the keys beside it);
     #: the default stares: every turbine lit on every pulse.
     scan: AntennaScan = field(default_factory=AntennaScan)
+    #: Streams shared between alike turbines (``share_streams`` and the keys beside it).
+    sharing: StreamSharing = field(default_factory=StreamSharing)
 
     @property
     def sample_rate_hz(self) -> float:
@@ -193,9 +207,10 @@ class Farm:
 _RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
 _SCAN_KEYS = {"scan_mode", "scan_rpm", "scan_start_deg", "acp_per_rev", "beamwidth_deg", "sidelobe_db",
               "pattern_file"}
+_SHARE_KEYS = {"share_streams", "share_aspect_deg", "share_min_sfdr_db"}
 _FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate",
               "interpolation", "adc_latency", "dac_latency", "range_extend_above",
-              "noise_dbfs"} | _RADAR_KEYS | _SCAN_KEYS
+              "noise_dbfs"} | _RADAR_KEYS | _SCAN_KEYS | _SHARE_KEYS
 _INTERPOLATIONS = ("fir", "linear", "hold")
 _WINDMILL_KEYS = {
     "name", "range", "num_blades", "rpm", "rotor_angle", "start_angle", "num_rcs",
@@ -225,6 +240,7 @@ LIMITS = {
     "output_gain_db": (300.0, "dB"), "range_extend_above": (1e12, "RTS samples"),
     "noise_dbfs": (300.0, "dBFS"), "azimuth": (1e6, "deg"), "scan_rpm": (600.0, "rpm"),
     "scan_start_deg": (1e6, "deg"), "beamwidth_deg": (180.0, "deg"),
+    "share_aspect_deg": (180.0, "deg"), "share_min_sfdr_db": (300.0, "dB"),
     # integers
     "num_blades": (1000, ""), "num_rcs": (100_000, ""), "ram_depth": (1 << 32, ""),
     "adc_latency": (1 << 20, ""), "dac_latency": (1 << 20, ""),
@@ -524,6 +540,18 @@ def _parse_scan(top: _Reader, source: str | None) -> AntennaScan | None:
     return AntennaScan(mode, rpm or 0.0, float(start % 360.0), acp, beamwidth, sidelobe, pattern)
 
 
+def _parse_sharing(top: _Reader) -> StreamSharing:
+    """The farm's stream sharing (``share_streams`` and the keys beside it)."""
+    enabled = top.table.get("share_streams", False)
+    if not isinstance(enabled, bool):
+        top.problem("share_streams", f"must be true or false, not {_short(enabled)}")
+        enabled = False
+    tolerance = top.number("share_aspect_deg", 0.0, non_negative=True, unit="deg")
+    min_sfdr = top.number("share_min_sfdr_db", 70.0, unit="dB")
+    return StreamSharing(enabled, 0.0 if tolerance is None else tolerance,
+                         70.0 if min_sfdr is None else min_sfdr)
+
+
 def validate_config(data: dict, source: str | None = None) -> Farm:
     """Validate a parsed TOML document and build the :class:`Farm` it
     describes, as written (its range-extended turbines not yet split:
@@ -556,6 +584,7 @@ def validate_config(data: dict, source: str | None = None) -> Farm:
                     f"full scale), not {noise_dbfs!r}")
         noise_dbfs = None
     scan = _parse_scan(top, source)
+    sharing = _parse_sharing(top)
     interpolation = data.get("interpolation", "fir")
     if interpolation not in _INTERPOLATIONS:
         top.problem("interpolation", f"must be one of {', '.join(map(repr, _INTERPOLATIONS))}, "
@@ -610,7 +639,7 @@ def validate_config(data: dict, source: str | None = None) -> Farm:
     if problems:
         raise ConfigError(problems, source)
     return Farm(sample_rate, radar, tuple(windmills), ram_depth, oversampling, output_gain_db,
-                interpolation, adc_latency, dac_latency, range_extend_above, noise_dbfs, scan)
+                interpolation, adc_latency, dac_latency, range_extend_above, noise_dbfs, scan, sharing)
 
 
 #: Largest config file read (bytes): a farm of thousands of turbines is a few MB.

@@ -33,6 +33,8 @@ import numpy as np
 
 from rast.model.contract import fixedpoint as fx
 from rast.model.physics.config import SPEED_OF_LIGHT_M_S, ConfigError, Farm, Windmill
+from rast.model.physics.sharing import (Share, candidate_groups, pool_words_shared, region_layout,
+                                       shared_replay_sfdr, word_offset, words_if_shared, GUARD_BINS)
 from rast.model.physics.synthesis import ComputePool, Synthesis, synthesise_period
 from rast.model.physics.turbine import max_doppler_hz
 from rast.model.contract.regmap import stream_crc32
@@ -246,6 +248,8 @@ class WindmillStream:
     snr_db: float
     delay_samples: int
     relative_amplitude: float  # K_l / K_nearest = (R_nearest / R_l)² (eq. 2.6, 2.24)
+    #: Set when the windmill plays a stream shared with others (rast.model.physics.sharing).
+    share: Share | None = None
     gain: float = 0.0
     gain_word: int = 0
     tap: int = 0
@@ -320,6 +324,58 @@ class FarmStreams:
     #: What the block will play otherwise than the config says, one line per
     #: windmill (a gain that rounds to 0); ``rast stream`` prints them.
     warnings: list[str] = dataclasses.field(default_factory=list)
+    #: ``(windmill, stream, sfdr_db)`` of each windmill that would have
+    #: shared a stream by aspect but measured under ``share_min_sfdr_db``.
+    refused_shares: list[tuple] = dataclasses.field(default_factory=list)
+
+    @property
+    def pool_words(self) -> int:
+        """Stream pool words these streams take together (a shared region once)."""
+        regions = {s.share.stream: s.share.region_words for s in self.streams if s.share is not None}
+        return sum(s.plan.length for s in self.streams if s.share is None) + sum(regions.values())
+
+    def sharing_summary(self) -> str | None:
+        """What sharing saved, in words and in fidelity, or would save without
+        touching an echo when it is off, for ``rast stream``; None when
+        nothing is or would be shared."""
+        shared = [s for s in self.streams if s.share is not None]
+        if not shared:
+            if self.farm.sharing.enabled:
+                return ("shared streams: none (no two windmills differ only by their start and rotor angles"
+                        + (f" within {self.farm.sharing.aspect_tolerance_deg:g} deg" if
+                           self.farm.sharing.aspect_tolerance_deg else "") + ")" + self._refused_text())
+            lengths = [s.plan.length for s in self.streams]
+            words = words_if_shared(dataclasses.replace(self.farm, windmills=tuple(s.windmill for s in self.streams)),
+                                    lengths)
+            if words >= sum(lengths):
+                return None
+            return (f"share_streams = true would hold these streams in {words:,} pool words instead of "
+                    f"{sum(lengths):,}: windmills that differ only by their blades' start angle")
+        unshared = sum(s.plan.length for s in self.streams)
+        regions = len({s.share.stream for s in shared})
+        start = max(abs(s.share.start_error_deg) for s in shared)
+        text = (f"shared streams: {len(shared)} windmills play {regions} stream(s); the pool holds "
+                f"{self.pool_words:,} words instead of {unshared:,} (saved {unshared - self.pool_words:,}, "
+                f"{100 * (unshared - self.pool_words) / unshared:.1f} %); start angles rounded to the "
+                f"streams' word grids by at most {start:.3g} deg")
+        by_aspect = [s for s in shared if s.share.sfdr_db is not None]
+        if by_aspect:
+            worst = min(by_aspect, key=lambda s: s.share.sfdr_db)
+            text += (f"; {len(by_aspect)} by aspect (up to {max(abs(s.share.aspect_error_deg) for s in by_aspect):.3g} "
+                     f"deg apart, maximum Doppler off by up to "
+                     f"{max(abs(s.share.doppler_error_hz) for s in by_aspect):.3g} Hz), worst replay SFDR "
+                     f"{worst.share.sfdr_db:.1f} dB ({worst.windmill.name!r}, at least "
+                     f"{self.farm.sharing.min_sfdr_db:g} dB asked)")
+        return text + self._refused_text()
+
+    def _refused_text(self) -> str:
+        if not self.refused_shares:
+            return ""
+        guard = GUARD_BINS / (self.farm.radar.cpi_ms * 1e-3)
+        name, stream, sfdr_db, doppler = min(self.refused_shares, key=lambda r: (r[2], -abs(r[3])))
+        return (f"; {len(self.refused_shares)} kept their own stream (an aspect-shared stream must keep "
+                f"{self.farm.sharing.min_sfdr_db:g} dB of SFDR and its maximum Doppler within {guard:.3g} Hz; "
+                f"worst {name!r} on {stream!r}'s: {sfdr_db:.1f} dB, {doppler:+.3g} Hz)")
 
     def smallest_contract(self, channels: int | None = None) -> fx.ReplayContract:
         """The smallest replay block that holds these streams (all of them in
@@ -330,7 +386,7 @@ class FarmStreams:
         delays = [c["delay_samples"] for c in ch]
         return fx.ReplayContract(
             channels=channels or len(ch),
-            pool_words=fx.pool_words_for(sum(c["length"] for c in ch)),
+            pool_words=fx.pool_words_for(self.pool_words),
             max_delay=fx.delay_depth(min(delays)) - 2,
             max_tap=max(2, fx.delay_depth(max(delays) - min(delays)) - 2),
             interpolation=self.farm.interpolation, sample_rate_hz=round(self.farm.sample_rate_hz),
@@ -393,6 +449,12 @@ class FarmStreams:
                 "scale": s.scale,
                 "snr_db": s.snr_db,
             }
+            if s.share is not None:          # plays a stream shared with alike windmills
+                entry["shared"] = {"stream": s.share.stream, "offset_words": s.share.offset_words,
+                                   "start_error_deg": s.share.start_error_deg,
+                                   "aspect_error_deg": s.share.aspect_error_deg,
+                                   "doppler_error_hz": s.share.doppler_error_hz,
+                                   **({"sfdr_db": s.share.sfdr_db} if s.share.sfdr_db is not None else {})}
             if w.range_cell is not None:     # one delay tap of a range-extended turbine
                 entry["range_cell"] = {"turbine": w.range_cell.turbine,
                                        "hub_range_km": w.range_cell.hub_range_km,
@@ -414,6 +476,11 @@ class FarmStreams:
                 "delay_samples": s.delay_samples,
                 # the turbine's azimuth code (AZIMUTH) where the antenna turns
                 **({"azimuth": int(azimuth_code(s.windmill.azimuth_deg))} if farm.scan.turning else {}),
+                # a shared stream: its words lie `offset` words into the
+                # region of `words` words that holds `stream`'s period
+                # (rast.model.contract.loadplan.pool_layout)
+                **({"pool_region": {"stream": s.share.stream, "offset": s.share.region_offset,
+                                    "words": s.share.region_words}} if s.share is not None else {}),
             })
         scan = {}
         if farm.scan.turning:
@@ -471,6 +538,64 @@ def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
                                interpolation=contract.interpolation)
 
 
+def _sharing_hint(farm: Farm, lengths, shared: bool) -> str:
+    """How many words ``share_streams = true`` would save, when it would."""
+    if shared:
+        return ""
+    words = words_if_shared(farm, lengths)
+    return "" if words >= sum(lengths) else f", or set share_streams = true (then {words} words)"
+
+
+def _share_streams(farm: Farm, groups, offsets, streams, sink, own) -> tuple[list, list]:
+    """Fill in the groups' members (their first windmill's words, rolled to
+    their start word) and every member's :class:`Share`; a member whose rotor
+    angle differs from the stream's and whose replay SFDR, measured, falls
+    under ``share_min_sfdr_db``, or whose maximum Doppler lies more than
+    GUARD_BINS Doppler bins from the stream's, gets its own stream
+    (``own(k)``). Returns the groups that still share and ``(windmill,
+    stream, sfdr_db, doppler_error_hz)`` of each member refused."""
+    kept, refused = [], []
+    for g in groups:
+        first = streams[g[0]]
+        plan = first.plan
+        taken, sfdr_of = [g[0]], {}
+        for k in g[1:]:
+            w = farm.windmills[k]
+            packed = np.roll(first.packed, -offsets[k][0])
+            if w.rotor_angle_deg != first.windmill.rotor_angle_deg:
+                cpi_s = farm.radar.cpi_ms * 1e-3
+                doppler_error = plan.max_doppler_hz - max_doppler_hz(w, farm.radar.wavelength_m)
+                sfdr_of[k] = shared_replay_sfdr(plan.max_doppler_hz - doppler_error, packed,
+                                                plan.stream_rate_hz, cpi_s)
+                if sfdr_of[k] < farm.sharing.min_sfdr_db or abs(doppler_error) > GUARD_BINS / cpi_s:
+                    refused.append((w.name, first.windmill.name, sfdr_of[k], doppler_error))
+                    streams[k] = own(k)
+                    continue
+            period = np.roll(first.period, -offsets[k][0])
+            if sink:
+                sink.start(w, plan.length)
+                sink.period(w, 0, period)
+                sink.words(w, 0, packed)
+            pairs = packed.view("<i2").reshape(-1, 2)
+            streams[k] = WindmillStream(
+                w, plan, period, pairs[:, 0], pairs[:, 1], first.scale, first.snr_db,
+                delay_samples=delay_samples(w.range_km, farm.sample_rate_hz),
+                relative_amplitude=first.relative_amplitude * (first.windmill.echo_range_km / w.echo_range_km) ** 2,
+                synthesis=first.synthesis, packed=packed)
+            taken.append(k)
+        if len(taken) < 2:
+            continue
+        _, rel, words = region_layout([offsets[k][0] for k in taken], plan.length)
+        for k, r in zip(taken, rel):
+            w = farm.windmills[k]
+            streams[k].share = Share(first.windmill.name, offsets[k][0], r, words, offsets[k][1],
+                                     first.windmill.rotor_angle_deg - w.rotor_angle_deg,
+                                     plan.max_doppler_hz - max_doppler_hz(w, farm.radar.wavelength_m),
+                                     sfdr_of.get(k))
+        kept.append(taken)
+    return kept, refused
+
+
 def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=None,
                        sink=None) -> FarmStreams:
     """Compute every windmill's period, quantise it, and derive delays, taps and gains.
@@ -492,6 +617,14 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
     """
     problems = []
     plans = [plan_stream(w, farm) for w in farm.windmills]
+    # Shared streams (rast.model.physics.sharing): a group's members play its
+    # first windmill's plan, from their own start word.
+    groups = candidate_groups(farm) if farm.sharing.enabled else []
+    offsets = {}
+    for g in groups:
+        for k in g:
+            plans[k] = plans[g[0]]
+            offsets[k] = word_offset(farm.windmills[k], farm.windmills[g[0]], plans[k].length)
     for w, plan in zip(farm.windmills, plans):
         if plan.length > MAX_STREAM_WORDS:
             problems.append(f"windmill '{w.name}': its stream needs {plan.length:,} words (one period of "
@@ -524,14 +657,19 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
                 f"windmill '{w.name}': its stream needs {plan.length} words (one period of "
                 f"{plan.period_s:.4g} s at {plan.stream_rate_hz:.6g} Hz) but 'ram_depth' is "
                 f"{farm.ram_depth}: lower 'stream_oversampling' or 'stream_rate', or raise 'ram_depth'")
-    total = sum(max(p.length, fx.min_stream_length(farm.interpolation)) for p in plans)
-    if check_ram_depth and farm.ram_depth is not None and not problems and total > farm.ram_depth:
-        problems.append(
-            f"the streams need {total} words together but 'ram_depth' (the stream pool of the "
-            f"build) is {farm.ram_depth}: lower 'stream_oversampling' or 'stream_rate', or raise "
-            f"'ram_depth'")
-    if problems:
-        raise ConfigError(problems)
+    lengths = [max(p.length, fx.min_stream_length(farm.interpolation)) for p in plans]
+
+    def check_pool(total, shared):
+        if check_ram_depth and farm.ram_depth is not None and not problems and total > farm.ram_depth:
+            problems.append(
+                f"the streams need {total} words together{' (shared)' if shared else ''} but 'ram_depth' "
+                f"(the stream pool of the build) is {farm.ram_depth}: lower 'stream_oversampling' or "
+                f"'stream_rate', or raise 'ram_depth'" + _sharing_hint(farm, lengths, shared))
+        if problems:
+            raise ConfigError(problems)
+
+    # (before any synthesis: the most the groups can save)
+    check_pool(pool_words_shared(lengths, groups, {k: o for k, (o, _) in offsets.items()}), bool(groups))
 
     nearest_km = min(w.echo_range_km for w in farm.windmills)
 
@@ -552,17 +690,25 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
             relative_amplitude=(nearest_km / w.echo_range_km) ** 2, synthesis=synthesis, packed=words)
 
     # A long stream is computed in pieces on every core, one such windmill at a
-    # time; the short ones (a farm at the automatic rate) one per core.
+    # time; the short ones (a farm at the automatic rate) one per core. A
+    # group's members are its first windmill's stream, rolled.
+    members = {k for g in groups for k in g[1:]}
     streams = [None] * len(plans)
     with ComputePool() as pool:
         inline = ComputePool(1)
-        long = [k for k, p in enumerate(plans) if p.length >= _PARALLEL_WITHIN or pool.workers == 1]
+        long = [k for k, p in enumerate(plans)
+                if k not in members and (p.length >= _PARALLEL_WITHIN or pool.workers == 1)]
         for k in long:
             streams[k] = one(farm.windmills[k], plans[k], pool)
         short = {k: pool.submit(one, farm.windmills[k], plans[k], inline)
-                 for k in range(len(plans)) if streams[k] is None}
+                 for k in range(len(plans)) if streams[k] is None and k not in members}
         for k, future in short.items():
             streams[k] = future.result()
+        groups, refused = _share_streams(farm, groups, offsets, streams, sink,
+                                lambda k: one(farm.windmills[k], plan_stream(farm.windmills[k], farm), inline))
+    if groups:
+        check_pool(pool_words_shared([s.plan.length for s in streams], groups,
+                                     {k: streams[k].share.offset_words for g in groups for k in g}), True)
     streams.sort(key=lambda s: (s.delay_samples, s.windmill.range_km))
 
     # g_l ∝ K_l / scale_l: one stream word of windmill l is worth 1/scale_l of its
@@ -598,4 +744,4 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
         s.tap = len(taps) - 1
     if problems:
         raise ConfigError(problems)
-    return FarmStreams(farm, streams, taps, warnings)
+    return FarmStreams(farm, streams, taps, warnings, refused)
