@@ -351,7 +351,7 @@ class FarmStreams:
                 return None
             return (f"share_streams = true would hold these streams in {words:,} pool words instead of "
                     f"{sum(lengths):,}: windmills that differ only by their blades' start angle")
-        unshared = sum(s.plan.length for s in self.streams)
+        unshared = sum(plan_stream(s.windmill, self.farm).length for s in self.streams)   # each its own
         regions = len({s.share.stream for s in shared})
         start = max(abs(s.share.start_error_deg) for s in shared)
         text = (f"shared streams: {len(shared)} windmills play {regions} stream(s); the pool holds "
