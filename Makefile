@@ -34,6 +34,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/bench_streams.py
 	$(BIN)/python bench/bench_interpolation.py
 	$(BIN)/python bench/bench_load.py
+	$(BIN)/python bench/bench_capacity.py
 
 bench-cosim: $(STAMP)
 	$(BIN)/python bench/bench_cosim.py

@@ -76,7 +76,7 @@ def _read_contract(bridge: HostBridge) -> ReplayContract:
     if ident != ID_VALUE:
         raise LoadError(f"Register ID reads {ident:#010x}, not {ID_VALUE:#010x}: not a RAST bitstream")
     cfg = bridge.read(a("CONFIG"))
-    c = ReplayContract(channels=cfg & 0xFF, slots=max(1, cfg >> 16 & 0x7F),
+    c = ReplayContract(channels=(cfg & 0xFF) | (cfg >> 13 & 7) << 8, slots=max(1, cfg >> 16 & 0x7F),
                        pool_words=bridge.read(a("POOL_WORDS")),
                        max_delay=bridge.read(a("MAX_DELAY")),
                        max_tap=bridge.read(a("MAX_TAP")),

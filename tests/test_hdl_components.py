@@ -345,7 +345,7 @@ def test_stream_pool_no_floorplan_where_rows_lack_room():
 
 @pytest.mark.parametrize("args, exc, msg", [
     (dict(channels=0), ValueError, r"^Channel count must be a positive integer, not 0$"),
-    (dict(channels=256), ValueError, r"^Channel count must be at most 255, not 256$"),
+    (dict(channels=513), ValueError, r"^Channel count must be at most 512, not 513$"),
     (dict(slots=0), ValueError, r"^Slots per pipeline must be a positive integer, not 0$"),
     (dict(slots=65), ValueError, r"^Slots per pipeline must be at most 64, not 65$"),
     (dict(channels=2.0), TypeError, r"^Channel count must be a positive integer, not 2.0$"),

@@ -335,7 +335,7 @@ def test_preview_and_cosim_bound_the_work_before_allocating(tmp_path):
 @pytest.mark.parametrize("args, needles", [
     (["--overlap", "2"], ["--overlap must be a fraction in [0, 1), not 2"]),
     (["--dynamic-range", "-3"], ["--dynamic-range must be a positive number of dB"]),
-    (["--channels", "0"], ["--channels must be in [1, 255], not 0"]),
+    (["--channels", "0"], ["--channels must be in [1, 512], not 0"]),
     (["--noise-rms", "nan"], ["--noise-rms must be a non-negative"]),
     (["--reload-at", "5"], ["--reload-at must be a time in [0, --seconds)"]),
     (["--out-is-a-file"], ["exists and is not a folder"]),

@@ -221,3 +221,4 @@ def test_rast_stream_prints_the_words_saved_and_writes_the_regions(tmp_path, cap
     for w in manifest["windmills"]:
         words = read_hex_words(tmp_path / "out" / w["hex_file"])
         assert stream_crc32(words) == w["crc32"]
+

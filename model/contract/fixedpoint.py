@@ -723,8 +723,9 @@ class ReplayContract:
     #: Keys of :meth:`to_dict` that are constructor parameters.
     PARAMETERS = ("channels", "slots", "pool_words", "max_delay", "max_tap", "interpolation",
                   "cmult_form", "sample_rate_hz", "pool", "scan")
-    #: Most channels a block may have (the CONFIG register's 8-bit field).
-    MAX_CHANNELS = 255
+    #: Most channels a block may have: 8 pipelines of 64 slots, an air-traffic
+    #: radar's rate on the 160 MHz fabric (CONFIG holds up to 2047).
+    MAX_CHANNELS = 512
     #: Most slots per pipeline.
     MAX_SLOTS = 64
 

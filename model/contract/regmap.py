@@ -150,12 +150,13 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
     inits = list(inits or [])
     inits += [ChannelInit()] * (c.channels - len(inits))
     interp_code = INTERPOLATIONS.index(c.interpolation)
-    config = (c.channels | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
-              | (int(c.pool == "sdram") << 11) | (int(c.scan) << 12) | (c.slots << 16))
+    config = ((c.channels & 0xFF) | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
+              | (int(c.pool == "sdram") << 11) | (int(c.scan) << 12) | (c.channels >> 8 << 13) | (c.slots << 16))
     regs = [
         Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
                  "identification"),
-        Register("CONFIG", 0x01, (Field("channels", 0, 8, "ro", c.channels, "channel count N"),
+        Register("CONFIG", 0x01, (Field("channels", 0, 8, "ro", c.channels & 0xFF,
+                                        "channel count N, its low 8 bits"),
                                   Field("interpolation", 8, 2, "ro", interp_code,
                                         "stream interpolation: 0 hold, 1 linear, 2 FIR"),
                                   Field("cmult3", 10, 1, "ro", int(c.cmult_form == "3mult"),
@@ -165,6 +166,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                   Field("scan", 12, 1, "ro", int(c.scan),
                                         "1: the antenna scan is built in (registers 0x10..0x1F, "
                                         "AZIMUTH; channels from 0x20, 16 apart)"),
+                                  Field("channels_hi", 13, 3, "ro", c.channels >> 8,
+                                        "channel count N, bits 10:8 (N = channels + 256 * channels_hi)"),
                                   Field("slots", 16, 7, "ro", c.slots,
                                         "M: fabric clocks per sample, channels per pipeline")),
                  f"elaboration parameters (reads {config:#x} here)"),
