@@ -324,8 +324,9 @@ class FarmStreams:
     #: What the block will play otherwise than the config says, one line per
     #: windmill (a gain that rounds to 0); ``rast stream`` prints them.
     warnings: list[str] = dataclasses.field(default_factory=list)
-    #: ``(windmill, stream, sfdr_db)`` of each windmill that would have
-    #: shared a stream by aspect but measured under ``share_min_sfdr_db``.
+    #: ``(windmill, stream, sfdr_db, doppler_error_hz)`` of each windmill that
+    #: would have shared a stream by aspect but failed its checks
+    #: (``rast.model.physics.sharing``): it plays its own stream.
     refused_shares: list[tuple] = dataclasses.field(default_factory=list)
 
     @property
@@ -559,16 +560,17 @@ def _share_streams(farm: Farm, groups, offsets, streams, sink, own) -> tuple[lis
         first = streams[g[0]]
         plan = first.plan
         taken, sfdr_of = [g[0]], {}
+        doppler_error = {k: plan.max_doppler_hz - max_doppler_hz(farm.windmills[k], farm.radar.wavelength_m)
+                         for k in g}
         for k in g[1:]:
             w = farm.windmills[k]
             packed = np.roll(first.packed, -offsets[k][0])
             if w.rotor_angle_deg != first.windmill.rotor_angle_deg:
                 cpi_s = farm.radar.cpi_ms * 1e-3
-                doppler_error = plan.max_doppler_hz - max_doppler_hz(w, farm.radar.wavelength_m)
-                sfdr_of[k] = shared_replay_sfdr(plan.max_doppler_hz - doppler_error, packed,
+                sfdr_of[k] = shared_replay_sfdr(plan.max_doppler_hz - doppler_error[k], packed,
                                                 plan.stream_rate_hz, cpi_s)
-                if sfdr_of[k] < farm.sharing.min_sfdr_db or abs(doppler_error) > GUARD_BINS / cpi_s:
-                    refused.append((w.name, first.windmill.name, sfdr_of[k], doppler_error))
+                if sfdr_of[k] < farm.sharing.min_sfdr_db or abs(doppler_error[k]) > GUARD_BINS / cpi_s:
+                    refused.append((w.name, first.windmill.name, sfdr_of[k], doppler_error[k]))
                     streams[k] = own(k)
                     continue
             period = np.roll(first.period, -offsets[k][0])
@@ -589,8 +591,7 @@ def _share_streams(farm: Farm, groups, offsets, streams, sink, own) -> tuple[lis
         for k, r in zip(taken, rel):
             w = farm.windmills[k]
             streams[k].share = Share(first.windmill.name, offsets[k][0], r, words, offsets[k][1],
-                                     first.windmill.rotor_angle_deg - w.rotor_angle_deg,
-                                     plan.max_doppler_hz - max_doppler_hz(w, farm.radar.wavelength_m),
+                                     first.windmill.rotor_angle_deg - w.rotor_angle_deg, doppler_error[k],
                                      sfdr_of.get(k))
         kept.append(taken)
     return kept, refused
