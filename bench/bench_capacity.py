@@ -12,7 +12,12 @@ with room in the pool to reload one while all play:
   multipliers fit the device's DP16KD and MULT18X18D
   (``rast.gateware.capacity.turbines_per_device``);
 * SDRAM pool (8,388,608 words): the channels the block RAMs and multipliers
-  allow, at most the contract's 512, and at most the streams the SDRAM holds.
+  allow, at most the contract's 512, and at most the streams the SDRAM holds;
+  beside it the SDRAM's bandwidth bound: the words a second those channels
+  ask when every one plays the fastest stream the contract lets it
+  (``ReplayContract.max_phase_increment``: the FIR's limit, or the pool's
+  share per channel) against the words the controller delivers (one per
+  SDRAM_WORD_CLOCKS of its clock).
 
 The reference turbine is the NREL 5-MW class (63 m blades, 12.1 rpm, three
 blades) face-on to an S-band radar (2.8 GHz), its stream at 4x its maximum
@@ -38,8 +43,8 @@ sys.path.insert(0, str(ROOT))
 
 from rast.gateware.build import BuildConfig, FABRIC_CLOCK_MHZ                 # noqa: E402
 from rast.gateware.capacity import DEVICE_BLOCKS, max_channels, turbines_per_device  # noqa: E402
-from rast.model.contract.fixedpoint import (FIR_MAX_INCREMENT, PHASE_FRAC_BITS, SDRAM_MAX_POOL_WORDS,  # noqa: E402
-                                            ReplayContract)
+from rast.model.contract.fixedpoint import (FIR_MAX_INCREMENT, PHASE_FRAC_BITS, SDRAM_CLOCK_HZ,  # noqa: E402
+                                            SDRAM_MAX_POOL_WORDS, SDRAM_WORD_CLOCKS, ReplayContract)
 from rast.model.physics.config import Farm, Radar, Windmill                  # noqa: E402
 from rast.model.physics.stream import plan_stream                            # noqa: E402
 
@@ -91,8 +96,9 @@ def main(argv=None):
           f"maximum Doppler {ref.max_doppler_hz:,.0f} Hz, stream {ref.stream_rate_hz:,.0f} words/s, "
           f"{ref.length:,} words")
     print("| MS/s | M | fabric MHz | ref. words | FIR plays it | block RAM pool: turbines (limit) | "
-          "SDRAM pool: turbines (limit) | built (channels, pool: seeds met, fmax MHz) |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+          "SDRAM pool: turbines (limit) | SDRAM words/s: asked / delivered | "
+          "built (channels, pool: seeds met, fmax MHz) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     rows = []
     for rate in RATES_MHZ:
         m = slots_for(rate)
@@ -103,13 +109,19 @@ def main(argv=None):
         ch, ch_limit = max_channels(DEVICE, slots=m, pool="sdram", pool_words=SDRAM_MAX_POOL_WORDS, **depths)
         held = SDRAM_MAX_POOL_WORDS // plan.length - 1
         sdram_n, sdram_limit = (ch, ch_limit) if ch <= held else (held, "SDRAM words")
+        # every channel at the fastest stream the contract lets it play, against
+        # the controller's one word per SDRAM_WORD_CLOCKS
+        c = ReplayContract(channels=sdram_n, slots=m, pool="sdram", pool_words=SDRAM_MAX_POOL_WORDS, **depths)
+        asked = sdram_n * c.max_phase_increment / (1 << PHASE_FRAC_BITS) * rate * 1e6
+        delivered = SDRAM_CLOCK_HZ / SDRAM_WORD_CLOCKS
         built = "; ".join(
             f"{n}, {pool}: {met}/{len(f)}, {min(x for x in f if x is not None):.1f}-{max(x for x in f if x is not None):.1f}"
             for (r, pool, n), (f, met) in sorted(builds.items()) if r == rate and any(x is not None for x in f))
         rows.append((rate, bram_n, sdram_n))
         print(f"| {rate:g} | {m} | {m * rate:g} | {plan.length:,} | "
               f"{'yes' if fir_ok else f'no: {plan.stream_rate_hz:,.0f} Hz > {fir_limit_hz:,.0f} Hz'} | "
-              f"{bram_n} ({bram_limit}) | {sdram_n} ({sdram_limit}) | {built or '-'} |")
+              f"{bram_n} ({bram_limit}) | {sdram_n} ({sdram_limit}) | {asked / 1e6:.2f} M / {delivered / 1e6:.2f} M | "
+              f"{built or '-'} |")
     if args.plot:
         import matplotlib
         matplotlib.use("Agg")
