@@ -16,9 +16,11 @@ from rast.load import read_manifest_dir
 from rast.model.contract.fixedpoint import ReplayContract
 
 
-#: The first load: two small turbines (2094 and 3589 stream words) at 2.0 and 2.9 km: the
-#: shortest farm that still loads two channels and sums two echoes (two_windmills.toml's 41,264
-#: words took 24 of this test's 25 minutes on the UART's simulated 3 Mbaud).
+#: The first load: two tiny turbines (300 and 539 stream words) at 2.0 and 2.9 km: the
+#: shortest farm that still loads two channels and sums two echoes. A stream's words at the
+#: automatic rate are 16·pi·r/(lambda·blades) whatever the rpm, and the load's time is its
+#: words on the UART's simulated 3 Mbaud (two_windmills.toml's 41,264 words took 24 of this
+#: test's 25 minutes; blades of 7 and 8 m, 5,683 words, 266-461 s).
 FIRST_CONFIG = """\
 sample_rate = 20
 radar_frequency = 5350
@@ -33,7 +35,7 @@ range = 2.0
 num_blades = 3
 rpm = 25
 num_rcs = 1
-radius = [7.0]
+radius = [1.0]
 rsc = [1.0]
 
 [[windmill]]
@@ -42,11 +44,11 @@ range = 2.9
 num_blades = 2
 rpm = 35
 num_rcs = 2
-radius = [4.0, 8.0]
+radius = [0.6, 1.2]
 rsc = [1.0, 0.5]
 """
 
-#: The second load: one small 3-blade turbine (1795 stream words) at 2.5 km.
+#: The second load: one tiny 3-blade turbine (270 stream words) at 2.5 km.
 RELOAD_CONFIG = """\
 sample_rate = 20
 radar_frequency = 5350
@@ -60,7 +62,7 @@ range = 2.5
 num_blades = 3
 rpm = 30
 num_rcs = 1
-radius = [6.0]
+radius = [0.9]
 rsc = [1.0]
 """
 

@@ -1,6 +1,6 @@
 """The radar antenna's scan and its two-way pattern (config keys ``scan_mode``,
 ``scan_rpm``, ``scan_start_deg``, ``acp_per_rev``, ``beamwidth_deg``,
-``sidelobe_db``, ``pattern_file``; docs/antenna_scan.md).
+``sidelobe_db``, ``pattern_file``, ``assign_below_db``; docs/antenna_scan.md).
 
 An RTS fed through a coupler bypasses the antenna, so it applies the pattern
 itself: each turbine's echo is scaled by the two-way gain at the offset
@@ -120,6 +120,9 @@ class AntennaScan:
     beamwidth_deg: float = 1.4
     sidelobe_db: float = -50.0
     pattern: PatternTable | None = field(default=None, compare=False)
+    #: The two-way gain (dB) at or below which a turbine needs no channel of a
+    #: board whose channels follow the beam (``rast.model.physics.beam_window``).
+    assign_below_db: float = -60.0
 
     @property
     def turning(self) -> bool:

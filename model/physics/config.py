@@ -206,7 +206,7 @@ class Farm:
 
 _RADAR_KEYS = {"radar_frequency", "prf", "pulse_width", "cpi"}
 _SCAN_KEYS = {"scan_mode", "scan_rpm", "scan_start_deg", "acp_per_rev", "beamwidth_deg", "sidelobe_db",
-              "pattern_file"}
+              "pattern_file", "assign_below_db"}
 _SHARE_KEYS = {"share_streams", "share_aspect_deg", "share_min_sfdr_db"}
 _FARM_KEYS = {"sample_rate", "ram_depth", "stream_oversampling", "output_gain_db", "stream_rate",
               "interpolation", "adc_latency", "dac_latency", "range_extend_above",
@@ -522,6 +522,11 @@ def _parse_scan(top: _Reader, source: str | None) -> AntennaScan | None:
         top.problem("sidelobe_db", f"must be in [{MIN_SIDELOBE_DB:g}, 0] dB (the two-way floor), "
                     f"not {sidelobe!r}")
         sidelobe = None
+    assign_below = top.number("assign_below_db", -60.0, unit="dB")
+    if assign_below is not None and not MIN_SIDELOBE_DB <= assign_below <= 0:
+        top.problem("assign_below_db", f"must be in [{MIN_SIDELOBE_DB:g}, 0] dB (a two-way gain), "
+                    f"not {assign_below!r}")
+        assign_below = None
     pattern = None
     if "pattern_file" in data:
         name = data["pattern_file"]
@@ -535,9 +540,9 @@ def _parse_scan(top: _Reader, source: str | None) -> AntennaScan | None:
                 pattern = read_pattern_csv(path)
             except ValueError as error:
                 top.problem(None, str(error))
-    if None in (start, beamwidth, sidelobe) or (mode != "stare" and not rpm):
+    if None in (start, beamwidth, sidelobe, assign_below) or (mode != "stare" and not rpm):
         return None
-    return AntennaScan(mode, rpm or 0.0, float(start % 360.0), acp, beamwidth, sidelobe, pattern)
+    return AntennaScan(mode, rpm or 0.0, float(start % 360.0), acp, beamwidth, sidelobe, pattern, assign_below)
 
 
 def _parse_sharing(top: _Reader) -> StreamSharing:

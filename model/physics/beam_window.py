@@ -1,0 +1,108 @@
+"""Which turbines a turning beam needs at once: the window of the pattern
+above a floor, and the channels a scene needs at its worst azimuth.
+
+A turbine whose two-way gain (``AntennaScan.two_way_gain_db`` of the offset
+beam − turbine) lies at or below ``assign_below_db`` contributes less than
+that floor; a board whose channels follow the beam serves only the turbines
+inside the window where the gain is above it, and the most of them inside
+the window at one beam azimuth is the channels it needs. The window is the
+span of offsets from the lowest to the highest where the gain is above the
+floor (a sidelobe above the floor widens it, conservatively); when the
+pattern's floor ``sidelobe_db`` lies above ``assign_below_db`` the gain
+never falls below it and every turbine needs its channel all the time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rast.model.physics.antenna import AntennaScan
+
+__all__ = ["BeamWindow", "assignment_window", "BeamChannels", "channels_needed", "farm_beam_channels"]
+
+#: Offsets at which a measured pattern is evaluated for its window (degrees).
+_PATTERN_STEP_DEG = 1e-3
+
+
+@dataclass(frozen=True)
+class BeamWindow:
+    """Offsets (beam − turbine, degrees) from ``low_deg`` to ``high_deg`` hold
+    every gain above ``floor_db``; None for both: the whole circle."""
+    floor_db: float
+    low_deg: float | None
+    high_deg: float | None
+
+    @property
+    def whole_circle(self) -> bool:
+        return self.low_deg is None
+
+    @property
+    def width_deg(self) -> float:
+        return 360.0 if self.whole_circle else self.high_deg - self.low_deg
+
+
+def assignment_window(scan: AntennaScan, floor_db: float) -> BeamWindow:
+    """The window of ``scan``'s two-way pattern above ``floor_db``. The
+    Gaussian lobe's is ±θ₃·√(−floor/24) (−24·(θ/θ₃)² dB = floor); a
+    measured pattern's is found on a 0.001° grid."""
+    if scan.sidelobe_db > floor_db:
+        return BeamWindow(floor_db, None, None)
+    if scan.pattern is None:
+        half = scan.beamwidth_deg * math.sqrt(-floor_db / 24.0)
+        return BeamWindow(floor_db, -half, half) if half < 180.0 else BeamWindow(floor_db, None, None)
+    offsets = np.arange(-180.0, 180.0, _PATTERN_STEP_DEG)
+    above = offsets[scan.two_way_gain_db(offsets) > floor_db]
+    if above.size == 0:
+        return BeamWindow(floor_db, 0.0, 0.0)
+    return BeamWindow(floor_db, float(above.min()), float(above.max()))
+
+
+@dataclass(frozen=True)
+class BeamChannels:
+    """The most turbines inside the window at one beam azimuth."""
+    channels: int
+    beam_azimuth_deg: float     # a beam azimuth where that many are inside
+    turbines: int
+    window: BeamWindow
+
+    def describe(self) -> str:
+        w = self.window
+        if w.whole_circle:
+            return (f"beam-following channels: none saved: the pattern's floor lies above "
+                    f"assign_below_db ({w.floor_db:g} dB), so every turbine is always in the window "
+                    f"({self.turbines} channels); set sidelobe_db at or below it")
+        return (f"beam-following channels: the two-way pattern is above {w.floor_db:g} dB from "
+                f"{w.low_deg:+.2f} to {w.high_deg:+.2f} deg of offset; at most {self.channels} of the "
+                f"{self.turbines} turbines lie in that window at once (beam at {self.beam_azimuth_deg:.2f} deg)")
+
+
+def channels_needed(azimuths_deg, window: BeamWindow) -> BeamChannels:
+    """The most of the turbines at ``azimuths_deg`` inside ``window`` at one
+    beam azimuth b (turbine k is inside when its offset b − az_k, wrapped,
+    lies in the window: az_k in [b − high, b − low]), and such a b. The
+    count is a sliding arc over the sorted azimuths; its maximum is reached
+    with the arc starting at a turbine."""
+    az = np.sort(np.mod(np.asarray(azimuths_deg, dtype=float), 360.0))
+    n = az.size
+    if n == 0:
+        return BeamChannels(0, 0.0, 0, window)
+    if window.whole_circle or window.width_deg >= 360.0:
+        return BeamChannels(n, 0.0, n, window)
+    doubled = np.concatenate([az, az + 360.0])
+    ends = np.searchsorted(doubled, az + window.width_deg, side="right")
+    counts = ends - np.arange(n)
+    k = int(np.argmax(counts))
+    # every beam azimuth from (last inside) + low to (first inside) + high
+    # holds them all: the middle of that span
+    beam = (doubled[ends[k] - 1] + window.low_deg + az[k] + window.high_deg) / 2
+    return BeamChannels(int(counts[k]), float(np.mod(beam, 360.0)), n, window)
+
+
+def farm_beam_channels(farm) -> BeamChannels:
+    """:func:`channels_needed` of a farm's channels (a range-extended
+    turbine's taps each one) under its scan's ``assign_below_db``."""
+    window = assignment_window(farm.scan, farm.scan.assign_below_db)
+    return channels_needed([w.azimuth_deg for w in farm.windmills], window)
