@@ -156,7 +156,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
         Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
                  "identification"),
         Register("CONFIG", 0x01, (Field("channels", 0, 8, "ro", c.channels & 0xFF,
-                                        "channel count N, its low 8 bits"),
+                                        "channel count N, its low 8 bits (bits 15:13, channels_hi, hold "
+                                        "the rest in a build of more than 255 channels)"),
                                   Field("interpolation", 8, 2, "ro", interp_code,
                                         "stream interpolation: 0 hold, 1 linear, 2 FIR"),
                                   Field("cmult3", 10, 1, "ro", int(c.cmult_form == "3mult"),
@@ -166,8 +167,10 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                   Field("scan", 12, 1, "ro", int(c.scan),
                                         "1: the antenna scan is built in (registers 0x10..0x1F, "
                                         "AZIMUTH; channels from 0x20, 16 apart)"),
-                                  Field("channels_hi", 13, 3, "ro", c.channels >> 8,
-                                        "channel count N, bits 10:8 (N = channels + 256 * channels_hi)"),
+                                  # (only where N > 255: the other builds' map as before)
+                                  *([Field("channels_hi", 13, 3, "ro", c.channels >> 8,
+                                           "channel count N, bits 10:8 (N = channels + 256 * channels_hi)")]
+                                    if c.channels > 255 else []),
                                   Field("slots", 16, 7, "ro", c.slots,
                                         "M: fabric clocks per sample, channels per pipeline")),
                  f"elaboration parameters (reads {config:#x} here)"),
