@@ -117,7 +117,7 @@ def main(argv=None):
         built = "; ".join(
             f"{n}, {pool}: {met}/{len(f)}, {min(x for x in f if x is not None):.1f}-{max(x for x in f if x is not None):.1f}"
             for (r, pool, n), (f, met) in sorted(builds.items()) if r == rate and any(x is not None for x in f))
-        rows.append((rate, bram_n, sdram_n))
+        rows.append((rate, bram_n, sdram_n, fir_ok))
         print(f"| {rate:g} | {m} | {m * rate:g} | {plan.length:,} | "
               f"{'yes' if fir_ok else f'no: {plan.stream_rate_hz:,.0f} Hz > {fir_limit_hz:,.0f} Hz'} | "
               f"{bram_n} ({bram_limit}) | {sdram_n} ({sdram_limit}) | {asked / 1e6:.2f} M / {delivered / 1e6:.2f} M | "
@@ -130,6 +130,10 @@ def main(argv=None):
         rates = [r[0] for r in rows]
         ax.plot(rates, [r[1] for r in rows], "o-", label="block RAM pool")
         ax.plot(rates, [r[2] for r in rows], "s-", label="SDRAM pool")
+        slow = [r for r in rows if not r[3]]
+        if slow:
+            ax.plot([r[0] for r in slow], [r[2] for r in slow], "ws", ms=4,
+                    label="(white) the FIR cannot play the reference turbine's 4x stream")
         for (r, pool, n), (f, met) in builds.items():
             if any(x is not None for x in f):
                 ax.plot([r], [n], "k*" if met == len(f) else "rx", ms=11)
@@ -139,9 +143,10 @@ def main(argv=None):
         ax.set_xticks(rates, [f"{r:g}" for r in rates])
         ax.set_xlabel("RTS sample rate (MS/s)")
         ax.set_ylabel("turbines replayed at once")
-        ax.set_title(f"Turbines per {DEVICE}: resource bound (lines) and builds (stars)")
+        ax.set_title(f"Turbines per {DEVICE}: resource bound (lines) and builds (stars)\n"
+                     "reference turbine: NREL 5-MW face-on at 2.8 GHz", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize=8)
         fig.tight_layout()
         args.plot.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(args.plot, dpi=110)
