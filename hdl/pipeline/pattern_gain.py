@@ -84,16 +84,16 @@ class PatternGain(wiring.Component):
                                                    output_reset=False)
         m.d.comb += [table.w_en.eq(self.w_en), table.w_addr.eq(self.w_addr), table.w_data.eq(self.w_data),
                      table.r_addr.eq(index)]                                          # 3, 4: the read
-        assert table.latency == 2
-        inside4 = delayed(m, inside, 2, "inside")
-        scan4, floor4 = delayed(m, self.scan, 4, "scan"), delayed(m, self.floor, 4, "floor")
+        read = 2 + table.latency             # the clock the table's word is out
+        inside_r = delayed(m, inside, table.latency, "inside")
+        scan_r, floor_r = delayed(m, self.scan, read, "scan"), delayed(m, self.floor, read, "floor")
         word = Signal(PATTERN_WIDTH + 1)
-        m.d.sync += word.eq(Mux(scan4, Mux(inside4, table.r_data, floor4), PATTERN_ONE))  # 5
+        m.d.sync += word.eq(Mux(scan_r, Mux(inside_r, table.r_data, floor_r), PATTERN_ONE))  # 5
         m.submodules.mul = mul = RegisteredMultiplier(GAIN_WIDTH + 1, PATTERN_WIDTH + 1, input_reg=True)
-        gain5 = delayed(m, self.gain, 5, "gain", data=True)
-        m.d.comb += [mul.en.eq(1), mul.a.eq(gain5), mul.b.eq(word)]                  # 6, 7
+        gain_w = delayed(m, self.gain, read + 1, "gain", data=True)
+        m.d.comb += [mul.en.eq(1), mul.a.eq(gain_w), mul.b.eq(word)]                 # 6, 7
         rounded = Signal(GAIN_WIDTH)
         m.d.sync += rounded.eq((mul.o + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)    # 8
         m.d.comb += self.o.eq(rounded)
-        assert 5 + 2 + 1 == self.latency
+        assert read + 1 + mul.latency + 1 == self.latency
         return m

@@ -332,8 +332,7 @@ class FarmStreams:
     @property
     def pool_words(self) -> int:
         """Stream pool words these streams take together (a shared region once)."""
-        regions = {s.share.stream: s.share.region_words for s in self.streams if s.share is not None}
-        return sum(s.plan.length for s in self.streams if s.share is None) + sum(regions.values())
+        return _pool_words(self.streams)
 
     def sharing_summary(self) -> str | None:
         """What sharing saved, in words and in fidelity, or would save without
@@ -539,6 +538,12 @@ def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
                                interpolation=contract.interpolation)
 
 
+def _pool_words(streams) -> int:
+    """Stream pool words of ``streams`` together, a shared region once."""
+    regions = {s.share.stream: s.share.region_words for s in streams if s.share is not None}
+    return sum(s.plan.length for s in streams if s.share is None) + sum(regions.values())
+
+
 def _sharing_hint(farm: Farm, lengths, shared: bool) -> str:
     """How many words ``share_streams = true`` would save, when it would."""
     if shared:
@@ -547,7 +552,7 @@ def _sharing_hint(farm: Farm, lengths, shared: bool) -> str:
     return "" if words >= sum(lengths) else f", or set share_streams = true (then {words} words)"
 
 
-def _share_streams(farm: Farm, groups, offsets, streams, sink, own) -> tuple[list, list]:
+def _share_streams(farm: Farm, groups, offsets, streams, sink, own, nearest_km) -> tuple[list, list]:
     """Fill in the groups' members (their first windmill's words, rolled to
     their start word) and every member's :class:`Share`; a member whose rotor
     angle differs from the stream's and whose replay SFDR, measured, falls
@@ -582,7 +587,7 @@ def _share_streams(farm: Farm, groups, offsets, streams, sink, own) -> tuple[lis
             streams[k] = WindmillStream(
                 w, plan, period, pairs[:, 0], pairs[:, 1], first.scale, first.snr_db,
                 delay_samples=delay_samples(w.range_km, farm.sample_rate_hz),
-                relative_amplitude=first.relative_amplitude * (first.windmill.echo_range_km / w.echo_range_km) ** 2,
+                relative_amplitude=(nearest_km / w.echo_range_km) ** 2,
                 synthesis=first.synthesis, packed=packed)
             taken.append(k)
         if len(taken) < 2:
@@ -706,10 +711,10 @@ def build_farm_streams(farm: Farm, *, check_ram_depth: bool = True, progress=Non
         for k, future in short.items():
             streams[k] = future.result()
         groups, refused = _share_streams(farm, groups, offsets, streams, sink,
-                                lambda k: one(farm.windmills[k], plan_stream(farm.windmills[k], farm), inline))
+                                         lambda k: one(farm.windmills[k], plan_stream(farm.windmills[k], farm), inline),
+                                         nearest_km)
     if groups:
-        check_pool(pool_words_shared([s.plan.length for s in streams], groups,
-                                     {k: streams[k].share.offset_words for g in groups for k in g}), True)
+        check_pool(_pool_words(streams), True)
     streams.sort(key=lambda s: (s.delay_samples, s.windmill.range_km))
 
     # g_l ∝ K_l / scale_l: one stream word of windmill l is worth 1/scale_l of its
