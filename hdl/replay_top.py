@@ -508,7 +508,7 @@ class WindFarmReplay(wiring.Component):
             return
         m, regs, stepped = env.m, env.regs, env.stepped
         m.submodules.acp_in, m.submodules.arp_in = acp_in, arp_in = self._acp_inputs
-        m.submodules.scan = gen = ScanGenerator()
+        m.submodules.scan = gen = ScanGenerator(step_clocks=env.M)
         # The generator takes the step in the pipelines' period start, after a
         # write before it has landed (a clock before): SCAN_CTRL's restart and
         # mode count from the step they are written before, as GAIN does.

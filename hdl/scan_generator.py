@@ -41,6 +41,12 @@ class ScanGenerator(wiring.Component):
     ``arp_lost``. ``restart`` loads ``start`` (free) or clears the count and
     what was learned (acp). Stare: ``beam`` is 0.
 
+    Parameters
+    ----------
+    step_clocks : int
+        The fewest clocks between two ``accept`` strobes (the engine's M);
+        at 2 or more the free beam's next remainder is worked out ahead.
+
     Members
     -------
     settings : In(SCAN_SETTINGS)
@@ -52,7 +58,11 @@ class ScanGenerator(wiring.Component):
         N in use.
     """
 
-    def __init__(self):
+    def __init__(self, *, step_clocks=1):
+        if not isinstance(step_clocks, int) or step_clocks < 1:
+            raise ValueError(f"step_clocks must be a positive integer (the fewest clocks between two "
+                             f"accepted steps), not {step_clocks!r}")
+        self._step_clocks = step_clocks
         super().__init__({
             "settings": In(SCAN_SETTINGS), "restart": In(1), "accept": In(1), "acp": In(1), "arp": In(1),
             "beam": Out(AZIMUTH_BITS), "arp_lost": Out(1), "learned": Out(1), "per_rev": Out(17),
@@ -72,25 +82,40 @@ class ScanGenerator(wiring.Component):
         """The free beam: a step adds 2**16 to the remainder, or, when that
         reaches ``period``, subtracts ``period - 2**16`` and carries into the
         code (anticlockwise: the mirror). ``period - 2**16`` is kept in a
-        register, so that a step is one comparison and one adder beside it
-        (a step every clock at M = 1)."""
+        register. With a step every clock (``step_clocks`` 1) a step is one
+        comparison and one adder beside it; with two clocks or more, each
+        direction's comparison and both next remainders are registers worked
+        out in the clock after each change (a restart sets them for a
+        remainder of 0, whichever direction it starts), and a step only
+        chooses between them (the 32-bit comparison and adder
+        in the step's clock were the scan build's latest path, 7.0 ns)."""
         s = self.settings
         rem = Signal(32)
         gap = Signal(32)                    # period - 2**16 (period >= 2**16: SCAN_PERIOD's clamp)
         m.d.sync += gap.eq(s.period - AZIMUTH_CODES)
+        # per direction: whether the step wraps, the remainder if it does, and if not
+        turns = {"cw": (rem >= gap, rem - gap, rem + AZIMUTH_CODES),
+                 "acw": (rem[AZIMUTH_BITS:] == 0, rem + gap, rem - AZIMUTH_CODES)}
+        # (from the period itself: a restart may come in the clock the period is written)
+        from_zero = {"cw": (s.period == AZIMUTH_CODES, AZIMUTH_CODES - s.period, AZIMUTH_CODES),
+                     "acw": (1, s.period - AZIMUTH_CODES, -AZIMUTH_CODES)}
+        if self._step_clocks > 1:
+            for way, (wraps, wrapped, stepped) in turns.items():
+                ahead = (Signal(name=f"{way}_wraps"), Signal(32, name=f"{way}_wrapped"),
+                         Signal(32, name=f"{way}_stepped"))
+                with m.If(self.restart):
+                    m.d.sync += [a.eq(v) for a, v in zip(ahead, from_zero[way])]
+                with m.Else():
+                    m.d.sync += [a.eq(v) for a, v in zip(ahead, turns[way])]
+                turns[way] = ahead
+        cw, acw = turns["cw"], turns["acw"]
+        wraps = Mux(s.anticlockwise, acw[0], cw[0])
         with m.If(self.restart):
             m.d.sync += [code.eq(s.start), rem.eq(0)]
         with m.Elif(self.accept & (s.mode == SCAN_MODES["free"])):
-            with m.If(~s.anticlockwise):
-                with m.If(rem >= gap):                          # rem + 2**16 >= period
-                    m.d.sync += [rem.eq(rem - gap), code.eq(code + 1)]
-                with m.Else():
-                    m.d.sync += rem.eq(rem + AZIMUTH_CODES)
-            with m.Else():
-                with m.If(rem[AZIMUTH_BITS:] == 0):             # rem - 2**16 < 0
-                    m.d.sync += [rem.eq(rem + gap), code.eq(code - 1)]
-                with m.Else():
-                    m.d.sync += rem.eq(rem - AZIMUTH_CODES)
+            m.d.sync += rem.eq(Mux(s.anticlockwise, Mux(acw[0], acw[1], acw[2]), Mux(cw[0], cw[1], cw[2])))
+            with m.If(wraps):
+                m.d.sync += code.eq(Mux(s.anticlockwise, code - 1, code + 1))
 
     def _acp(self, m, code):
         """Following the radar. An event's update takes only values held in

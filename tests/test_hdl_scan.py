@@ -70,13 +70,15 @@ def settings(dut, ctx, mode, *, anticlockwise=0, auto=0, acp_log2=12, period=1 <
 
 
 @pytest.mark.parametrize("rpm, fs, start_deg, spacing", [(12_500.0, 20e6, 359.9, 1), (-5_000.0, 20e6, 0.05, 3),
-                                                         (2_000.0, 2.5e6, 90.0, 8)])
+                                                         (2_000.0, 2.5e6, 90.0, 8), (-12_500.0, 20e6, 0.1, 2)])
 def test_free_beam_is_the_contracts(rpm, fs, start_deg, spacing):
     """Steps accepted every ``spacing`` clocks: each step's beam is
     free_beam_codes', carrying into the code once in 1.5 to 12 samples (a
-    fast turn, so that a short run passes north: P of 96 000 to 240 000)."""
+    fast turn, so that a short run passes north: P of 96 000 to 240 000).
+    From two clocks the generator works the next remainder out ahead; the
+    first step is a clock after the restart."""
     p = sc.samples_per_revolution(rpm, fs)
-    dut = ScanGenerator()
+    dut = ScanGenerator(step_clocks=spacing)
     steps = 5000
     got = []
 
