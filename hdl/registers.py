@@ -697,26 +697,18 @@ class RegisterFile(wiring.Component):
             m_hit = landing(m_hit, 1, f"match_hit_q_g{g}")
             matched = m_hit & parts.all()
             group_match.append(landing(matched, 1, f"match_g{g}"))
-            # PLAYED: the CRC of a SWAP taken, into the group's RAM a clock
-            # after the CTRL write's landing: the run's CRC (the group's copy,
-            # which no access changes until the next landing, TAKE_SPACING
-            # later), equal to the channel's CRC where the check matched. The
-            # enable is the landing's choice (the group's CTRL write with its
-            # swap bit, registered) and the check's registered result: the
-            # check's parts into PLAYED's fresh bits in the landing's clock
-            # were the SDRAM build's latest path (6.5 ns, 4.8 routing). A
-            # read-back reads the RAM TAKE_SPACING - 3 clocks or more after
-            # the landing (``_read_back``), so the clock is not seen.
+            # PLAYED: the CRC of a SWAP taken, into the group's RAM at the
+            # CTRL write's landing: the run's CRC (the group's copy, which no
+            # access changes until the next landing, TAKE_SPACING later), equal
+            # to the channel's CRC where the check matched; the enable from the
+            # landing's inputs: the group's CTRL write, its swap bit and the
+            # check's result.
             w_slot, w_onehot_in = landing_slot[g]
             before = at(g, wd - 1)
-            ctrl_swap = landing(group_hit[g] & decoded_bit(f"off{ctrl_offset}",
-                                                          lambda op: op.addr[:stride_bits] == ctrl_offset, g)
-                                & before.data[rmap.reg("CTRL", 0).field("swap").lsb], 1, f"played_ctrl_swap_g{g}")
-            took = ctrl_swap & group_match[g]
-            played_slot = landing(w_slot, len(w_slot), f"played_slot_g{g}", data=True)
-            played_onehot = landing(w_onehot_in, len(w_onehot_in), f"played_onehot_g{g}", data=True)
-            raw_read, fresh, _, reset_of, _ = slot_ram(g, members, "played", "PLAYED", "crc", took, played_slot,
-                                                       played_onehot, ~run[-32:])
+            took = (group_hit[g] & decoded_bit(f"off{ctrl_offset}", lambda op: op.addr[:stride_bits] == ctrl_offset, g)
+                    & before.data[rmap.reg("CTRL", 0).field("swap").lsb] & matched)
+            raw_read, fresh, _, reset_of, _ = slot_ram(g, members, "played", "PLAYED", "crc", took, w_slot,
+                                                       w_onehot_in, ~run[-32:])
             ram_reads[g]["played"] = (raw_read, fresh, reset_of)
         # only the addressed channel's group can match: each channel's command
         # takes its group's result (their OR, one register for every channel,
