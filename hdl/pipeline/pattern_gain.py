@@ -36,13 +36,17 @@ class PatternGain(wiring.Component):
     for ``beam − azimuth`` (the floor word beyond the table's span; 2**15,
     0 dB, when ``scan`` is off), :attr:`latency` clocks after its inputs.
 
-    The stages: the offset; the table's index and whether the offset lies
-    in its span (``shift`` 0..6); the table's read (one block RAM and its
+    The stages: the offset (and the span's half from ``shift``); the offset
+    plus that half; the table's index and whether the offset lies in its
+    span (``shift`` 0..6); the table's read (one block RAM and its
     own output register, its write port from the register file); the word
     or the floor; the product (one MULT18X18D with input and output
     registers); the rounding. (The block RAM's read without its output
     register, and the floor's choice, in one clock were the scan build's
-    latest path at seed 2: 10.6 ns, 94.7 MHz.)
+    latest path at seed 2: 10.6 ns, 94.7 MHz; the offset's add of the
+    half-span and the span's check in one clock at seed 1 of ``0f00145``,
+    6.7 ns, 148.4 MHz. ``latency`` + GAIN_INPUT_DELAY is the product stage's
+    ``max_gain_lag`` at the four-multiplier product, 11 clocks.)
 
     Members
     -------
@@ -55,7 +59,7 @@ class PatternGain(wiring.Component):
     o : Out(GAIN_WIDTH)
     """
 
-    latency = 8
+    latency = 9
 
     def __init__(self):
         super().__init__({
@@ -69,31 +73,40 @@ class PatternGain(wiring.Component):
         m = Module()
         offset = Signal(AZIMUTH_BITS)
         m.d.sync += offset.eq(self.beam - self.azimuth)                               # 1
-        index, inside = Signal(PATTERN_INDEX_BITS), Signal()
-        shift = delayed(m, self.shift, 1, "shift")
-        with m.Switch(shift):                                                         # 2
+        # the table's span from the shift, in registers beside the offset's
+        half = Signal(AZIMUTH_BITS, name="half_span")        # 2**(index bits - 1 + shift)
+        known = Signal(name="shift_known")                   # shift <= MAX_PATTERN_SHIFT
+        with m.Switch(self.shift):
             for k in range(MAX_PATTERN_SHIFT + 1):
                 with m.Case(k):
-                    u = Signal(AZIMUTH_BITS + 1, name=f"u_shift{k}")
-                    m.d.comb += u.eq(offset.as_signed() + (1 << (PATTERN_INDEX_BITS - 1 + k)))
+                    m.d.sync += [half.eq(1 << (PATTERN_INDEX_BITS - 1 + k)), known.eq(1)]
+            with m.Default():
+                m.d.sync += [half.eq(0), known.eq(0)]
+        u = Signal(AZIMUTH_BITS + 1, name="u")               # offset + half: [0, 2 half) inside the span
+        m.d.sync += u.eq(offset.as_signed() + half)                                   # 2
+        index, inside = Signal(PATTERN_INDEX_BITS), Signal()
+        shift, known = delayed(m, self.shift, 2, "shift"), delayed(m, known, 1, "known")
+        with m.Switch(shift):                                                         # 3
+            for k in range(MAX_PATTERN_SHIFT + 1):
+                with m.Case(k):
                     m.d.sync += [index.eq(u[k:k + PATTERN_INDEX_BITS]),
-                                 inside.eq(u[k + PATTERN_INDEX_BITS:] == 0)]
+                                 inside.eq(known & (u[k + PATTERN_INDEX_BITS:] == 0))]
             with m.Default():
                 m.d.sync += [index.eq(0), inside.eq(0)]
         m.submodules.table = table = RegisteredRAM(PATTERN_WIDTH, PATTERN_ENTRIES, continuous=True,
                                                    output_reset=False)
         m.d.comb += [table.w_en.eq(self.w_en), table.w_addr.eq(self.w_addr), table.w_data.eq(self.w_data),
-                     table.r_addr.eq(index)]                                          # 3, 4: the read
-        read = 2 + table.latency             # the clock the table's word is out
+                     table.r_addr.eq(index)]                                          # 4, 5: the read
+        read = 3 + table.latency             # the clock the table's word is out
         inside_r = delayed(m, inside, table.latency, "inside")
         scan_r, floor_r = delayed(m, self.scan, read, "scan"), delayed(m, self.floor, read, "floor")
         word = Signal(PATTERN_WIDTH + 1)
-        m.d.sync += word.eq(Mux(scan_r, Mux(inside_r, table.r_data, floor_r), PATTERN_ONE))  # 5
+        m.d.sync += word.eq(Mux(scan_r, Mux(inside_r, table.r_data, floor_r), PATTERN_ONE))  # 6
         m.submodules.mul = mul = RegisteredMultiplier(GAIN_WIDTH + 1, PATTERN_WIDTH + 1, input_reg=True)
         gain_w = delayed(m, self.gain, read + 1, "gain", data=True)
-        m.d.comb += [mul.en.eq(1), mul.a.eq(gain_w), mul.b.eq(word)]                 # 6, 7
+        m.d.comb += [mul.en.eq(1), mul.a.eq(gain_w), mul.b.eq(word)]                 # 7, 8
         rounded = Signal(GAIN_WIDTH)
-        m.d.sync += rounded.eq((mul.o + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)    # 8
+        m.d.sync += rounded.eq((mul.o + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)    # 9
         m.d.comb += self.o.eq(rounded)
         assert read + 1 + mul.latency + 1 == self.latency
         return m
