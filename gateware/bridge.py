@@ -5,6 +5,8 @@ the simulation tests). The bridge is the only master of the replay block's
 register bus (:class:`rast.hdl.registers.BusSignature`).
 """
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Module, Signal, Cat, Mux
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFO
@@ -66,6 +68,17 @@ class UARTBridge(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
+        env = SimpleNamespace(m=m, platform=platform)
+        self._line(env)
+        self._fields(env)
+        self._bus(env)
+        self._states(env)
+        return m
+
+    def _line(self, env):
+        """The UART's receiver, transmitter and reply queue; the received byte
+        and its decoding a clock later; the queue's room and its input."""
+        m = env.m
         m.submodules.urx = urx = UARTRx(self._divisor)
         m.submodules.utx = utx = UARTTx(self._divisor)
         m.submodules.txq = txq = SyncFIFO(width=8, depth=TX_FIFO_DEPTH)
@@ -95,6 +108,14 @@ class UARTBridge(wiring.Component):
         tx_put, tx_byte = Signal(), Signal(8)
         m.d.sync += [tx_put.eq(put), tx_byte.eq(put_byte)]
         m.d.comb += [txq.w_en.eq(tx_put), txq.w_data.eq(tx_byte)]
+        env.__dict__.update(urx=urx, txq=txq, byte=byte, stb=stb, go_frame=go_frame, go_version=go_version,
+                            is_read=is_read, is_burst=is_burst, cmd_read=cmd_read, cmd_burst=cmd_burst,
+                            cmd_write=cmd_write, room=room, put=put, put_byte=put_byte)
+
+    def _fields(self, env):
+        """A frame's fields: the address, the word count, the bytes taken of
+        a field (``nh``), the write's data, the reply, the timeout."""
+        m, urx, byte, stb = env.m, env.urx, env.byte, env.stb
         addr = Signal(16)
         count = Signal(16)
         # count changes a clock after the state decides it, from three
@@ -158,7 +179,14 @@ class UARTBridge(wiring.Component):
             m.d.sync += idle_left.eq(self._timeout - 1)
         with m.Elif(~timed_out):
             m.d.sync += idle_left.eq(idle_left - 1)
+        env.__dict__.update(addr=addr, count_set_one=count_set_one, count_shift=count_shift,
+                            count_down=count_down, count_one=count_one, nh=nh, byte_n1=byte_n1,
+                            byte_n3=byte_n3, byte_n1_empty=byte_n1_empty, byte_n1_more=byte_n1_more,
+                            data=data, reply=reply, rh=rh, timed_out=timed_out)
 
+    def _bus(self, env):
+        """The register bus's outputs from flip-flops, its answers registered."""
+        m, platform, addr, data, byte = env.m, env.platform, env.addr, env.data, env.byte
         # Every bus output comes straight from a flip-flop: the bus fans out to
         # all channels' registers across the device (timing, see docs/bitstream.md).
         bus = self.bus
@@ -191,7 +219,19 @@ class UARTBridge(wiring.Component):
         taken = kept_register(m, platform, bus.ready & (w_stb | r_stb), "taken", reset=True)
         r_valid = kept_register(m, platform, bus.r_valid, "r_valid", reset=True)
         m.d.sync += r_data.eq(bus.r_data)
+        env.__dict__.update(w_stb=w_stb, r_stb=r_stb, r_data=r_data, taken=taken, r_valid=r_valid)
 
+    def _states(self, env):
+        """The frame's state machine and what each state does."""
+        m, e = env.m, env
+        (byte, stb, go_frame, go_version, is_read, is_burst, cmd_read, cmd_burst, cmd_write, room, put,
+         put_byte) = (e.byte, e.stb, e.go_frame, e.go_version, e.is_read, e.is_burst, e.cmd_read, e.cmd_burst,
+                      e.cmd_write, e.room, e.put, e.put_byte)
+        (addr, count_set_one, count_shift, count_down, count_one, nh, byte_n1, byte_n3, byte_n1_empty,
+         byte_n1_more, data, reply, rh, timed_out) = (e.addr, e.count_set_one, e.count_shift, e.count_down,
+                                                    e.count_one, e.nh, e.byte_n1, e.byte_n3, e.byte_n1_empty,
+                                                    e.byte_n1_more, e.data, e.reply, e.rh, e.timed_out)
+        w_stb, r_stb, r_data, taken, r_valid = e.w_stb, e.r_stb, e.r_data, e.taken, e.r_valid
         # The state, one flip-flop per state (one-hot), each written as its
         # own equation: Amaranth's FSM gives no documented control of its
         # encoding, and as a 4-bit binary state behind enables the next state
@@ -264,4 +304,3 @@ class UARTBridge(wiring.Component):
         m.d.comb += [put_byte.eq(Mux(s_ack, ACK, reply[:8])), put.eq((s_reply | s_ack) & room)]
         with m.If(s_reply & room & rh[3] | s_ack & room):
             m.d.sync += self.frames.eq(self.frames + 1)
-        return m
