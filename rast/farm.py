@@ -67,6 +67,17 @@ def _bearing(text: str) -> float:
     return value
 
 
+def _angle(text: str) -> float:
+    """An argparse type: an angle in [0, 180] degrees."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 <= value <= 180:
+        raise argparse.ArgumentTypeError(f"must be an angle in [0, 180] degrees, not {text}")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from rast.model.physics.layout import FarmSettings, TURBINE_CLASSES
     d = FarmSettings()
@@ -96,6 +107,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"default {d.cpi_ms:g}")
     parser.add_argument("--ram-depth", type=_words, metavar="WORDS",
                         help="the stream pool of the build to load, written as ram_depth (default: none)")
+    parser.add_argument("--stream-oversampling", type=_number("a stream rate over the maximum Doppler, at least 2"),
+                        metavar="X", help="each stream's rate as a multiple of its turbine's maximum Doppler, "
+                        "written as stream_oversampling (default: not written, the config's 4)")
+    parser.add_argument("--share-aspect-deg", type=_angle, metavar="DEG",
+                        help="alike turbines share streams (share_streams = true), rotor angles this "
+                        "close too where the replay SFDR holds (docs/stream_sharing.md; default: no sharing)")
     parser.add_argument("--out", required=True, help="farm config (TOML) to write")
 
 
@@ -106,7 +123,8 @@ def run(args) -> int:
     check_output(args.out, folder=False, option="--out")
     layout = read_layout(args.layout)
     settings = FarmSettings(args.sample_rate, args.radar_frequency, args.prf, args.pulse_width, args.cpi,
-                            args.ram_depth)
+                            args.ram_depth, stream_oversampling=args.stream_oversampling,
+                            share_aspect_deg=args.share_aspect_deg)
     text, summary = make_farm(layout, RadarSite.from_option(args.radar, layout.geodetic), args.wind_from,
                               turbine_class=TURBINE_CLASSES[args.turbine_model], settings=settings,
                               wind_speed_m_s=args.wind_speed, max_range_km=args.max_range_km,

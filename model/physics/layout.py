@@ -141,6 +141,9 @@ class FarmSettings:
     cpi_ms: float = 100.0
     ram_depth: int | None = None     # words of the build's stream pool; None: not written (no limit)
     output_gain_db: float | None = None   # dB; None: not written (0, the loudest echo at full scale)
+    stream_oversampling: float | None = None   # × max Doppler; None: not written (the parser's 4)
+    share_aspect_deg: float | None = None   # deg; None: no sharing written; else share_streams = true
+    #                                          and this tolerance (docs/stream_sharing.md)
 
 
 @dataclass(frozen=True)
@@ -517,6 +520,11 @@ def farm_toml(placed: list[PlacedTurbine], settings: FarmSettings, *, header: li
           if settings.ram_depth is not None else []),
         *([f"output_gain_db = {settings.output_gain_db:g}    # dB: the loudest sum of echoes within one pulse "
            "at full scale"] if settings.output_gain_db is not None else []),
+        *([f"stream_oversampling = {settings.stream_oversampling:g}   # each stream's rate: this × its "
+           "maximum Doppler"] if settings.stream_oversampling is not None else []),
+        *(["share_streams = true      # alike turbines play one stream (docs/stream_sharing.md)",
+           f"share_aspect_deg = {settings.share_aspect_deg:g}    # deg: rotor angles this close may share, "
+           "each where its replay SFDR holds"] if settings.share_aspect_deg is not None else []),
     ]
     for p in placed:
         lines += _windmill_table(p, tower_rcs_m2)
