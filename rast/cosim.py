@@ -47,7 +47,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="channels of the replay block (default: one per windmill)")
     p.add_argument("--slots", type=int, default=1,
                    help="fabric clocks per sample M, each pipeline serving M channels (default 1: the "
-                        "quickest to simulate, the same integers; the default bitstream has 10)")
+                        "quickest to simulate, the same integers; the default bitstream has 8, the 2.5 MS/s build 64)")
     p.add_argument("--noise-rms", type=float, default=0.0, metavar="FS",
                    help="receiver noise inside each pulse, RMS as a fraction of full scale (default 0: "
                         "the SFDR then measures the replay itself)")

@@ -26,7 +26,7 @@ inserted with probability ``gap_thresh/256`` (a 32-bit LFSR seeded from
 
 Capture: ``cap_mode`` 0 writes every output; 1 writes only outputs whose
 position in their PRI is one of ``cap_offset[0..n_cap-1]`` (the radar's
-range gates, at most ``MAX_CAP`` = 64: a farm's turbines, each at its own
+range gates, at most ``MAX_CAP`` = 512: the largest build's turbines, each at its own
 range; the wrapper walks them in ascending order, one compare per output). In both modes the wrapper folds every output into two
 Fletcher-style 64-bit checksums per lane (``s1 += x; s2 += s1``, wrapping),
 which :func:`checksums` reproduces in numpy, so a run that keeps only a few
@@ -62,7 +62,7 @@ import numpy as np
 __all__ = ["PortMap", "bulk_verilog", "TEMPLATE", "CFG_FIELDS", "BulkJob", "write_job", "read_outputs",
            "read_summary", "checksums", "src_words", "MAX_CAP", "CLOCK_PERIOD_NS", "BURST_CYCLES", "CLOCK_ENV"]
 
-MAX_CAP = 64
+MAX_CAP = 512
 #: Stands for an output sample with X/Z bits (as rast.sim.testbench.X_VALUE).
 X_VALUE = -(1 << 62)
 CLOCK_PERIOD_NS = 10
