@@ -78,6 +78,12 @@ class WindFarmReplay(wiring.Component):
         Power-up streams (in the pool at their bases) and register values.
     init_common_delay : int
         Power-up COMMON_DELAY.
+    sdram_preloaded : bool
+        With ``pool="sdram"`` and ``init``: the SDRAM holds ``init``'s
+        streams before the engine leaves reset (a simulation's SDRAM model
+        loaded at the start, :class:`rast.sim.sdram_top.SDRAMEngineTop`); a
+        board's SDRAM powers up empty, and without this ``init``'s streams
+        are refused there.
 
     Members
     -------
@@ -110,7 +116,7 @@ class WindFarmReplay(wiring.Component):
     def __init__(self, channels=4, *, slots=1, pool_words=ReplayContract.pool_words,
                  max_delay=ReplayContract.max_delay, max_tap=ReplayContract.max_tap,
                  interpolation="fir", cmult_form="4mult", sample_rate_hz=0, pool="bram", scan=False,
-                 init=None, init_common_delay=0, acp_filter_clocks=16):
+                 init=None, init_common_delay=0, acp_filter_clocks=16, sdram_preloaded=False):
         self._contract = ReplayContract(channels=channels, slots=slots, pool_words=pool_words,
                                         max_delay=max_delay, max_tap=max_tap,
                                         interpolation=interpolation, cmult_form=cmult_form,
@@ -125,7 +131,9 @@ class WindFarmReplay(wiring.Component):
                 raise TypeError(f"Initial contents of channel {k} must be a ChannelInit, not {ini!r}")
         self._init = init + [ChannelInit()] * (channels - len(init))
         self._pool_init = pool_contents(init, pool_words) if any(ini.words for ini in init) else []
-        if self._pool_init and pool == "sdram":
+        if not isinstance(sdram_preloaded, bool):
+            raise TypeError(f"SDRAM preloaded must be a bool, not {sdram_preloaded!r}")
+        if self._pool_init and pool == "sdram" and not sdram_preloaded:
             raise ValueError("Initial streams need a block-RAM pool: an SDRAM pool powers up empty "
                              "(load the streams through the bus)")
         if not isinstance(init_common_delay, int) or not 0 <= init_common_delay <= max_delay:

@@ -62,6 +62,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sdram", action="store_true",
                    help="the streams in SDRAM: the engine's SDRAM pool on LiteDRAM's simulation core "
                         "(controller clock = fabric / 4; docs/sdram.md)")
+    p.add_argument("--preload", action="store_true",
+                   help="with --sdram: the streams in the simulated SDRAM and the registers at their "
+                        "values from power-up, instead of the load through the bus (80 fabric clocks a "
+                        "stream word: the load of a 512-turbine farm would outlast its 0.1 s)")
     p.add_argument("--reload-at", type=float, default=None, metavar="SECONDS",
                    help="reload every stream from this radar time on (into the other half of a pool "
                         "twice the size, 64 register writes at a time, as fast as the pool takes them), "
@@ -174,6 +178,9 @@ def _check_options(args, farm) -> None:
                         f"windmills (after range extension)")
     if not 1 <= args.slots <= ReplayContract.MAX_SLOTS:
         raise UserError(f"--slots must be in [1, {ReplayContract.MAX_SLOTS}], not {args.slots}")
+    if args.preload and (not args.sdram or args.reload_at is not None):
+        raise UserError("--preload needs --sdram and no --reload-at (it puts the streams in the simulated "
+                        "SDRAM at power-up)")
     check_output(args.out, folder=True, option="--out")
 
 
@@ -205,7 +212,7 @@ def run(args) -> int:
     t0 = time.monotonic()
     try:
         e = prepare(config, args.seconds, channels=args.channels, slots=args.slots, pool=pool,
-                    reload_s=args.reload_at, noise_rms=args.noise_rms)
+                    reload_s=args.reload_at, noise_rms=args.noise_rms, preload=args.preload)
     except ValueError as error:       # the config holds no cosimulation (e.g. a PRI of no whole samples)
         print(f"rast cosim: {Path(config).name}: {error}", file=sys.stderr)
         return 2
@@ -219,16 +226,18 @@ def run(args) -> int:
           f"{', synthesised netlist (synth_ecp5) with ECP5 cell models' if args.netlist else ''}", flush=True)
     make_sources = (replay_netlist_sources if args.netlist else sdram_engine_top_sources if args.sdram
                     else top_sources)
+    preloaded = dict(init=tuple(e.scenario.inits), init_common_delay=e.scenario.common_delay) \
+        if args.preload else {}
     sources, top = make_sources(c.channels, slots=c.slots, pool_words=c.pool_words,
                                 max_delay=c.max_delay, interpolation=c.interpolation,
-                                max_tap=c.max_tap, **({"scan": True} if c.scan else {}))
+                                max_tap=c.max_tap, **({"scan": True} if c.scan else {}), **preloaded)
     kind = "-netlist" if args.netlist else "-sdram" if args.sdram else "-scan" if c.scan else ""
     b = runner.build(sources, top, simulator=args.simulator, waves=args.waves or None,
                      label=f"cosim{c.channels}m{c.slots}{kind}", bulk=True)
     print(f"rast cosim: build {'reused' if b.build_seconds == 0 else f'{b.build_seconds:.1f} s'}: "
           f"{b.build_dir}", flush=True)
     params = dict(config=config, seconds=args.seconds, channels=args.channels, slots=args.slots, pool=pool,
-                  reload_s=args.reload_at,
+                  reload_s=args.reload_at, preload=args.preload,
                   overlap=args.overlap,
                   noise_rms=args.noise_rms,
                   require_peaks=bool(args.check_doppler))

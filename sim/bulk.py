@@ -110,6 +110,10 @@ class PortMap:
     open_outputs: tuple = ()
     clk: str = "clk"
     rst: str = "rst"
+    #: memories inside the DUT the wrapper loads at the start, after the
+    #: testbench wrote the files: file name -> hierarchical path from the
+    #: wrapper (e.g. a simulated SDRAM's banks, ``BulkJob.images``)
+    preload: dict = field(default_factory=dict)
 
 
 #: The wrapper's Verilog: a template whose ``${name}`` fields :func:`bulk_verilog` fills in.
@@ -156,6 +160,7 @@ def bulk_verilog(p: PortMap, *, src_aw: int = 22, reg_aw: int = 18) -> str:
         obs_summary="".join(f'                $fwrite(fd_sum, "obs_{n} %0d\\n", obs_{n});\n'
                             for n in p.observe),
         bus_ready_default="" if p.bus_ready else "    assign bus_ready = 1'b1;\n", bus_settle=p.bus_settle,
+        preload="".join(f'                    $readmemh("{f}", {path});\n' for f, path in p.preload.items()),
         in_width=p.in_width, out_width=p.out_width, src_aw=src_aw, reg_aw=reg_aw,
         n_cfg=len(CFG_FIELDS), max_cap=MAX_CAP, cap_base=n_fixed, clock_half_ns=CLOCK_PERIOD_NS // 2,
         burst=BURST_CYCLES)
@@ -185,6 +190,9 @@ class BulkJob:
     cap_offsets: tuple | None = None   # None: capture every output
     timeout: int = 100_000
     drain: bool = False                # wait for the pipeline to empty before register writes
+    #: contents of the DUT's memories the wrapper loads at the start
+    #: (``PortMap.preload``): file name -> (indices, values), written as hex
+    images: dict = field(default_factory=dict)
 
     @property
     def n_in(self) -> int:
@@ -221,6 +229,21 @@ def _hex_lines(values: np.ndarray, digits: int) -> bytes:
     return chars.tobytes()
 
 
+def _memory_image(index, values) -> bytes:
+    """``$readmemh`` text: each run of consecutive indices after its ``@address``."""
+    index = np.asarray(index, dtype=np.int64)
+    values = np.asarray(values, dtype=np.uint64)
+    if index.size == 0:
+        return b""
+    starts = np.flatnonzero(np.diff(index, prepend=index[0] - 2) != 1)
+    digits = max(1, -(-int(values.max()).bit_length() // 4))
+    out = []
+    for k, start in enumerate(starts):
+        end = starts[k + 1] if k + 1 < len(starts) else len(index)
+        out.append(f"@{int(index[start]):x}\n".encode() + _hex_lines(values[start:end], digits))
+    return b"".join(out)
+
+
 def src_words(job: BulkJob) -> np.ndarray:
     """The words ``src.hex`` holds for ``job``: ``job.src``, or its first
     ``active`` words when every pulse's words are those (a pulse train without
@@ -235,7 +258,7 @@ def src_words(job: BulkJob) -> np.ndarray:
 
 
 def write_job(job: BulkJob, directory: Path, n_out: int | None = None) -> None:
-    """Write ``cfg.hex``, ``src.hex`` and ``regs.hex`` for ``job`` into ``directory``."""
+    """Write ``cfg.hex``, ``src.hex``, ``regs.hex`` and ``job.images`` for ``job`` into ``directory``."""
     job.validate()
     d = Path(directory)
     src = src_words(job)
@@ -252,6 +275,8 @@ def write_job(job: BulkJob, directory: Path, n_out: int | None = None) -> None:
         values[f"cap_offset{k}"] = cap[k] if k < len(cap) else (1 << 63)
     (d / "cfg.hex").write_bytes(_hex_lines(np.array([values[f] for f in CFG_FIELDS], dtype=np.uint64), 16))
     (d / "src.hex").write_bytes(_hex_lines(src if len(src) else np.zeros(1, np.uint64), 8))
+    for name, (index, values) in job.images.items():
+        (d / name).write_bytes(_memory_image(index, values))
     if job.regs:
         r = np.array(job.regs, dtype=np.uint64).reshape(-1, 3)
         hi = r[:, 0]

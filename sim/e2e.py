@@ -92,14 +92,33 @@ def reload_writes(farm_streams, c: ReplayContract, at: int, first_base: int) -> 
 
 def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots: int = 1,
             pool: str = "bram", reload_s: float | None = None, amplitude: float = 0.4,
-            noise_rms: float = 0.0, seed: int = 1, gap_thresh: int = 4, stall_thresh: int = 4) -> E2E:
+            noise_rms: float = 0.0, seed: int = 1, gap_thresh: int = 4, stall_thresh: int = 4,
+            preload: bool = False) -> E2E:
+    """The farm's cosimulation job. ``preload`` (SDRAM pool only): the streams
+    are in the simulated SDRAM and every register at its value from power-up
+    (``Scenario.inits``; the wrapper loads ``job.images``), instead of the
+    load's register writes: a 512-turbine farm's load is 1.65 M stream words,
+    80 fabric clocks each through the bus (docs/sdram.md)."""
+    from rast.model.contract.loadplan import manifest_channel_inits
+    from rast.model.contract.powerup import pool_contents
     from rast.model.physics.farm import load_config
     from rast.model.physics.stream import build_farm_streams
+    if preload and (pool != "sdram" or reload_s is not None):
+        raise ValueError("preload is for an SDRAM pool without a reload")
     farm = load_config(config)
     fs = build_farm_streams(farm)
     manifest = fs.manifest()
     c = contract_for(fs, channels, slots, pool, copies=1 if reload_s is None else 2)
-    writes = manifest_to_register_writes(manifest, c, streams=[s.words for s in fs.streams])
+    streams = [s.words for s in fs.streams]
+    inits, common_delay, images = None, 0, {}
+    if preload:
+        from rast.sim.sdram_top import sdram_image
+        inits, common_delay = manifest_channel_inits(manifest, c, streams=streams)
+        used = max(ini.base + len(ini.words) for ini in inits)
+        images = sdram_image(pool_contents(inits, c.pool_words)[:used])
+        writes = []
+    else:
+        writes = manifest_to_register_writes(manifest, c, streams=streams)
     r = farm.radar
     bw = min(20.0, farm.sample_rate_mhz)          # Table 4.1: 20 MHz linear chirp up
     pulse = PulseConfig.for_seconds(seconds, sample_rate_mhz=farm.sample_rate_mhz, prf_hz=r.prf_hz,
@@ -132,8 +151,8 @@ def prepare(config, seconds: float = 1.0, *, channels: int | None = None, slots:
                   flush=max(0, max_total_delay + active - pulse.samples_per_pri) + 8,
                   regs=regs, gap_thresh=gap_thresh, gap_max=3,
                   stall_thresh=stall_thresh, seed=seed, cap_offsets=tuple(g[0] for g in gate_list),
-                  timeout=10_000)
-    sc = Scenario(f"e2e-{Path(config).stem}-{seconds:g}s", c, job, farm.sample_rate_hz)
+                  timeout=10_000, images=images)
+    sc = Scenario(f"e2e-{Path(config).stem}-{seconds:g}s", c, job, farm.sample_rate_hz, inits, common_delay)
     return E2E(str(config), farm, fs, sc, pulse, gate_list,
                info=dict(channels=c.channels, slots=c.slots, pool=c.pool, pool_words=c.pool_words,
                          reload_s=reload_s, reload_writes=len(regs) - len(writes),

@@ -172,7 +172,7 @@ ${bus_ready_default}
                         $finish;
                     end
                     if (n_regs != 0) $readmemh("regs.hex", regs, 0, n_regs - 1);
-                    fd_out = $fopen("out.txt", "w");
+${preload}                    fd_out = $fopen("out.txt", "w");
                     src_ptr <= 0; pos <= 0; pulse <= 0; flushed <= 0; rptr <= 0; gap_left <= 0; settle_left <= 0;
                     out_pos <= 0; cap_ptr <= 0; quiet <= 0; x_count <= 0; s1_i <= 0; s2_i <= 0; s1_q <= 0; s2_q <= 0;
                     lfsr_in <= seed[31:0] | 32'd1;

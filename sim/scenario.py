@@ -35,6 +35,9 @@ class Scenario:
     contract: ReplayContract
     job: BulkJob
     sample_rate_hz: float = 20e6
+    #: the block's power-up state (ChannelInit per channel; None: as reset) and COMMON_DELAY
+    inits: list | None = None
+    common_delay: int = 0
 
 
 def job_inputs(job: BulkJob) -> tuple[np.ndarray, np.ndarray]:
@@ -53,7 +56,7 @@ def model_outputs(sc: Scenario, xi=None, xq=None):
     """``(yi, yq, overflow)`` of the bit-exact model for the scenario."""
     if xi is None:
         xi, xq = job_inputs(sc.job)
-    m = ReplayModel(sc.contract)
+    m = ReplayModel(sc.contract, sc.inits, sc.common_delay)
     yi, yq = m.run_with_writes(xi, xq, sc.job.regs)
     return yi, yq, int(m.overflow)
 

@@ -20,8 +20,9 @@ instances.
 from fractions import Fraction
 from numbers import Rational
 
-from amaranth.hdl import ClockDomain, ClockSignal, Module, ResetSignal, Signal
+from amaranth.hdl import ClockDomain, ClockSignal, Module, ResetInserter, ResetSignal, Signal
 from amaranth.lib import wiring
+from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
 from rast.gateware.sdram.core import LiteDRAMCore
@@ -31,7 +32,7 @@ from rast.model.contract.fixedpoint import SDRAM_CLOCK_HZ, SDRAM_FABRIC_HZ
 
 __all__ = ["SDRAMPoolTop", "sdram_top_sources", "TOPLEVEL", "LITEDRAM_LINT_WAIVERS",
            "FractionalClock", "OnSimSDRAM", "SDRAMEngineTop", "SDRAMSystemTop", "ENGINE_TOPLEVEL",
-           "fabric_clocks_per_sdram_clock", "sdram_engine_sources"]
+           "fabric_clocks_per_sdram_clock", "sdram_engine_sources", "sdram_image", "SDRAM_IMAGE_MEMORIES"]
 
 TOPLEVEL = "sdram_top"
 
@@ -153,14 +154,21 @@ class OnSimSDRAM(wiring.Component):
     core's ``init_done``, ``init_error``. The controller's domain ``sdram``
     runs at the fabric clock / ``fabric_per_sdram`` (:class:`FractionalClock`),
     its reset held for 16 fabric clocks after the fabric's.
+
+    ``hold_until_init``: ``inner``'s ``sync`` domain held in reset until the
+    core's ``init_done`` (synchronised), its stream input ``i`` and its
+    ``bus`` not ready until then: an engine whose channels play from power-up
+    out of a preloaded SDRAM (:func:`sdram_image`) fetches nothing before the
+    controller answers, and its first input sample is the model's first.
     """
 
-    def __init__(self, core, inner, names, *, cdelay_clocks=1, fabric_per_sdram=4):
+    def __init__(self, core, inner, names, *, cdelay_clocks=1, fabric_per_sdram=4, hold_until_init=False):
         self._clock = FractionalClock(fabric_per_sdram)
         self._generated = core
         self._inner = inner
         self._names = tuple(names)
         self._core = LiteDRAMCore(core, domain="sdram", cdelay_clocks=cdelay_clocks)
+        self._hold = hold_until_init
         sig = inner.signature.members
         super().__init__({name: sig[name] for name in self._names}
                          | {"init_done": Out(1), "init_error": Out(1)})
@@ -183,13 +191,27 @@ class OnSimSDRAM(wiring.Component):
         with m.If(hold != 0):
             m.d.sync += hold.eq(hold - 1)
         m.d.comb += [ClockSignal("sdram").eq(clock.clk), ResetSignal("sdram").eq(hold != 0)]
-        m.submodules.inner = inner = self._inner
+        inner, ready = self._inner, None
         m.submodules.sdram = core = self._core
+        if self._hold:
+            ready = Signal()
+            m.submodules.init_sync = FFSynchronizer(core.init_done, ready)
+            m.submodules.inner = ResetInserter({"sync": ~ready})(inner)
+        else:
+            m.submodules.inner = inner
         wiring.connect(m, inner.native, core.native)
         for name in self._names:
             member = self.signature.members[name]
             outer, port = getattr(self, name), getattr(inner, name)
-            if member.is_port:
+            if ready is not None and name == "i":
+                m.d.comb += [port.payload.eq(outer.payload), port.valid.eq(outer.valid & ready),
+                             outer.ready.eq(port.ready & ready)]
+            elif ready is not None and name == "bus":
+                m.d.comb += [port.addr.eq(outer.addr), port.w_data.eq(outer.w_data),
+                             port.w_stb.eq(outer.w_stb & ready), port.r_stb.eq(outer.r_stb & ready),
+                             outer.ready.eq(port.ready & ready), outer.r_data.eq(port.r_data),
+                             outer.r_valid.eq(port.r_valid)]
+            elif member.is_port:
                 m.d.comb += (port.eq(outer) if member.flow == In else outer.eq(port))
             elif member.flow == In:
                 wiring.connect(m, wiring.flipped(outer), port)
@@ -205,15 +227,21 @@ class SDRAMEngineTop(OnSimSDRAM):
     ``pool_error``, ``underflow`` (those of the block-RAM engine's top, so
     that the bulk wrapper drives it unchanged) and ``init_done``, ``init_error``.
     ``fabric_per_sdram``: fabric clocks per controller clock, by default the
-    board's for the contract's fabric clock (:func:`fabric_clocks_per_sdram_clock`)."""
+    board's for the contract's fabric clock (:func:`fabric_clocks_per_sdram_clock`).
+
+    ``kwargs`` with ``init`` streams: the engine plays them from power-up out
+    of an SDRAM model the bulk wrapper loads at the start (:func:`sdram_image`
+    into SDRAM_IMAGE_MEMORIES), held until the controller's ``init_done``."""
 
     def __init__(self, core, channels, *, cdelay_clocks=1, fabric_per_sdram=None, **kwargs):
         from rast.hdl.replay_top import WindFarmReplay
-        engine = WindFarmReplay(channels, pool="sdram", **kwargs)
+        preloaded = any(ini.words for ini in kwargs.get("init") or ())
+        engine = WindFarmReplay(channels, pool="sdram", sdram_preloaded=preloaded, **kwargs)
         if fabric_per_sdram is None:
             fabric_per_sdram = fabric_clocks_per_sdram_clock(engine.contract.clock_hz)
         super().__init__(core, engine, ("i", "o", "bus", "overflow", "slot", "pool_error", "underflow"),
-                         cdelay_clocks=cdelay_clocks, fabric_per_sdram=fabric_per_sdram)
+                         cdelay_clocks=cdelay_clocks, fabric_per_sdram=fabric_per_sdram,
+                         hold_until_init=preloaded)
 
     @property
     def engine(self):
@@ -249,3 +277,32 @@ def sdram_engine_sources(channels, *, cdelay_clocks=1, fabric_per_sdram=None, **
     top = SDRAMEngineTop(generate_core(sim=True), channels, cdelay_clocks=cdelay_clocks,
                          fabric_per_sdram=fabric_per_sdram, **kwargs)
     return top.verilog_sources(ENGINE_TOPLEVEL)
+
+
+#: The simulation core's SDRAM banks as the bulk wrapper reaches them from its
+#: DUT (``sdram_engine_top``'s ``sdram`` holds the core, ``litedram``): file
+#: name -> memory. LiteDRAM's ``SDRAMPHYModel`` keeps one array per bank (of
+#: the MT48LC16M16's four), 16-bit words at ``row * 512 + column``.
+SDRAM_IMAGE_MEMORIES = {f"sdram_bank{b}.hex": f"dut.sdram.litedram.mem{'' if b == 0 else f'_{b}'}"
+                        for b in range(4)}
+_COLUMN_BITS, _BANK_BITS = 9, 2
+
+
+def sdram_image(pool_words) -> dict:
+    """The pool's words (``pool_words[a]`` at pool address a, the first
+    ``len(pool_words)`` of the SDRAM) as the simulation core's bank arrays
+    hold them: ``{file name: (indices, 16-bit words)}`` per bank of
+    SDRAM_IMAGE_MEMORIES. Each 32-bit word is two beats of the native port
+    at addresses 2a (I, the low half) and 2a + 1 (Q); LiteDRAM's crossbar
+    maps a beat address row | bank | column (ROW_BANK_COL: 9 column bits, 2
+    bank bits)."""
+    import numpy as np
+    words = np.asarray(pool_words, dtype=np.int64) & 0xFFFFFFFF
+    beat = np.arange(2 * len(words), dtype=np.int64)
+    half = np.empty(2 * len(words), dtype=np.int64)
+    half[0::2], half[1::2] = words & 0xFFFF, words >> 16
+    column = beat & ((1 << _COLUMN_BITS) - 1)
+    bank = (beat >> _COLUMN_BITS) & ((1 << _BANK_BITS) - 1)
+    row = beat >> (_COLUMN_BITS + _BANK_BITS)
+    index = (row << _COLUMN_BITS) | column
+    return {name: (index[bank == b], half[bank == b]) for b, name in enumerate(SDRAM_IMAGE_MEMORIES)}

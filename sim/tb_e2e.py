@@ -1,7 +1,8 @@
 """cocotb end-to-end test: a farm config's radar time line through the RTL and a radar receiver.
 
 Parameters (``RAST_TB_PARAMS``): ``config``, ``seconds``, optional
-``channels``, ``overlap``. Writes ``e2e.npz`` (per-pulse samples of RTL and
+``channels``, ``overlap``, ``preload`` (and ``damage_image``: bit 14 of the
+first preloaded beat flipped, which the comparison must catch). Writes ``e2e.npz`` (per-pulse samples of RTL and
 model, spectrograms) and ``e2e.json`` (figures and checks, the PRF, the
 gates' ranges and the SFDR of the RTL's samples per gate) to the run
 directory; fails on the first mismatching sample, on spectrograms that are
@@ -30,7 +31,11 @@ async def e2e(dut):
     d = run_dir()
     t0 = time.monotonic()
     e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1),
-                pool=p.get("pool", "bram"), reload_s=p.get("reload_s"), noise_rms=p.get("noise_rms", 0.0))
+                pool=p.get("pool", "bram"), reload_s=p.get("reload_s"), noise_rms=p.get("noise_rms", 0.0),
+                preload=p.get("preload", False))
+    if p.get("damage_image"):
+        name, (index, values) = next(iter(e.scenario.job.images.items()))
+        e.scenario.job.images[name] = (index, np.concatenate([values[:1] ^ 0x4000, values[1:]]))
     t_prep = time.monotonic() - t0
     cocotb.log.info("e2e %s: %s", e.scenario.name, e.info)
     beside = ModelBeside(e.scenario, d)          # the model on the other core, during the RTL run
@@ -104,6 +109,6 @@ async def bench(dut):
     """Only the RTL run of the e2e job (no model): the benchmark's cosim figure."""
     p = params()
     e = prepare(p["config"], p["seconds"], channels=p.get("channels"), slots=p.get("slots", 1),
-                pool=p.get("pool", "bram"), reload_s=p.get("reload_s"))
+                pool=p.get("pool", "bram"), reload_s=p.get("reload_s"), preload=p.get("preload", False))
     summary = await BulkBench(dut).run(e.scenario.job, progress=True)
     save_json(run_dir() / "bench.json", dict(summary, info=e.info))

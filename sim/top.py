@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -48,7 +49,7 @@ def top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int,
 @lru_cache(maxsize=None)
 def sdram_engine_top_sources(channels: int, *, pool_words: int, max_delay: int, max_tap: int, slots: int = 1,
                              interpolation: str = "fir", sample_rate_hz: int = 0, src_aw: int = 22,
-                             reg_aw: int = 20, fabric_per_sdram=None):
+                             reg_aw: int = 20, fabric_per_sdram=None, init: tuple = (), init_common_delay: int = 0):
     """``({file: text}, toplevel)`` of the engine with its pool in SDRAM
     (:class:`rast.sim.sdram_top.SDRAMEngineTop`, LiteDRAM's simulation core)
     inside ``rast_bulk``; ``pool_error``, ``underflow``, ``init_done`` and ``init_error`` observed.
@@ -57,15 +58,21 @@ def sdram_engine_top_sources(channels: int, *, pool_words: int, max_delay: int, 
     controller runs at SDRAM_CLOCK_HZ against it (4 fabric clocks a controller
     clock at 200 MHz, 16/5 at 160 MHz) unless ``fabric_per_sdram`` says
     otherwise. ``reg_aw`` 20: a million register writes, a stream pool's
-    worth (a 64-turbine farm and its reload)."""
+    worth (a 64-turbine farm and its reload). ``init`` (ChannelInit per channel)
+    and ``init_common_delay``: the channels play from power-up out of an SDRAM
+    the wrapper loads at the start from ``BulkJob.images``
+    (:func:`rast.sim.sdram_top.sdram_image`), no load through the bus."""
     from rast.model.contract.fixedpoint import ReplayContract
     from rast.model.contract.regmap import register_map
-    from rast.sim.sdram_top import ENGINE_TOPLEVEL, sdram_engine_sources
+    from rast.sim.sdram_top import ENGINE_TOPLEVEL, SDRAM_IMAGE_MEMORIES, sdram_engine_sources
     kwargs = dict(slots=slots, pool_words=pool_words, max_delay=max_delay, max_tap=max_tap,
                   interpolation=interpolation, sample_rate_hz=sample_rate_hz)
-    sources = sdram_engine_sources(channels, fabric_per_sdram=fabric_per_sdram, **kwargs)
+    init_kwargs = dict(init=list(init), init_common_delay=init_common_delay) if init else {}
+    sources = sdram_engine_sources(channels, fabric_per_sdram=fabric_per_sdram, **kwargs, **init_kwargs)
     aw = register_map(ReplayContract(channels=channels, pool="sdram", **kwargs)).addr_width
     pm = port_map(aw, ENGINE_TOPLEVEL, ("overflow", "pool_error", "underflow", "init_done", "init_error"))
+    if any(ini.words for ini in init):
+        pm = dataclasses.replace(pm, preload=dict(SDRAM_IMAGE_MEMORIES))
     return {**sources, "rast_bulk.v": bulk_verilog(pm, src_aw=src_aw, reg_aw=reg_aw)}, "rast_bulk"
 
 
