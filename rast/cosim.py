@@ -266,7 +266,8 @@ def run(args) -> int:
     lines = [f"rast cosim {config}",
              f"simulator           {args.simulator}",
              f"design              {'netlist after synth_ecp5, ECP5 cell models' if args.netlist else 'behavioural Verilog'}"
-             f"{', stream pool in SDRAM (LiteDRAM simulation core)' if args.sdram else ''}",
+             f"{', stream pool in SDRAM (LiteDRAM simulation core)' if args.sdram else ''}"
+             f"{', the streams in it and the registers set from power-up (--preload)' if args.preload else ''}",
              f"radar time          {args.seconds:g} s ({e.pulse.n_pulses} pulses)",
              *([f"antenna scan        {farm.scan.mode}, {farm.scan.rpm:g} rpm from {farm.scan.start_deg:g} deg, "
                 f"the two-way pattern in every channel's gain (AZIMUTH, the table loaded at sample 0)"]
