@@ -83,12 +83,26 @@ def _png(out: Path, e, data, overlap: float, *, zoom_hz: float | None = None,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from rast.model.files.outputs import atomic_file
-    from rast.model.radar.plot import STACKED_PANELS, gate_title, save_gate_grid
+    from rast.model.radar.plot import MAX_PANELS, STACKED_PANELS, gate_title, save_gate_grid, save_range_doppler
+    from rast.model.radar.receiver import RangeBin, Spectrogram
     from rast.model.physics.turbine import max_doppler_hz
     times, dopp = data["times_s"], data["doppler_hz"]
     half_bin = (dopp[1] - dopp[0]) / 2 if dopp.size > 1 else 0.5
     band = (dopp[0] - half_bin, dopp[-1] + half_bin)
     n = len(e.gates)
+    if n > MAX_PANELS:              # too many gates for panels: range-Doppler maps, RTL beside model
+        bins = [RangeBin(rk, tuple(members)) for _, rk, members in e.gates]
+        spectra = {key: [Spectrogram(times, dopp, data[f"power_{key}_{g}"]) for g in range(n)]
+                   for key in ("rtl", "model")}
+        with atomic_file(out) as png:
+            save_range_doppler(e.farm, bins, spectra["rtl"], png, dynamic_range_db=dynamic_range_db,
+                               zoom_hz=zoom_hz, beside=("RTL (generated Verilog)", "bit-exact model",
+                                                        spectra["model"]),
+                               title=f"rast cosim {Path(e.config).name}: {len(e.farm.windmills)} windmills in "
+                                     f"{n} range gates, {e.pulse.n_pulses} pulses, PRF {e.farm.radar.prf_hz:g} Hz, "
+                                     f"CPI {e.farm.radar.cpi_ms:g} ms: each gate's peak over the CPIs; "
+                                     "white ticks: ±max Doppler")
+        return
     if n > STACKED_PANELS:          # many gates: a grid of small panels, RTL beside model in each cell
         lam = e.farm.radar.wavelength_m
         gates = [dict(title=gate_title(rk, [e.farm.windmills[i].name for i in members],
@@ -305,7 +319,10 @@ def run(args) -> int:
             if not rep.get("doppler_checked", True):
                 state = ("not checked (the antenna turns: the beam lights each turbine only while on it)"
                          if farm.scan.turning else
-                         "not checked (the reload restarts every stream from its first word)")
+                         "not checked (the reload restarts every stream from its first word)"
+                         if args.reload_at is not None else
+                         f"not checked (a Doppler beyond ±PRF/2 = ±{e.farm.radar.prf_hz / 2:g} Hz aliases: "
+                         "the outermost line is not the maximum)")
             shared = "" if d["explained_by"] == d["windmill"] else \
                 f", the edge of {d['explained_by']} in the same gate; its own {d['windmill_hz']:.1f} Hz"
             lines.append(f"max Doppler {d['windmill']:<8} RTL {d['measured_hz']:8.1f} Hz, physics "

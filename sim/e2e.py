@@ -33,7 +33,7 @@ from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP, register_map
 from .bulk import MAX_CAP, BulkJob
 from .scenario import Scenario
 
-__all__ = ["E2E", "prepare", "contract_for", "receiver", "doppler_check", "physics_doppler_track",
+__all__ = ["E2E", "prepare", "contract_for", "receiver", "doppler_aliased", "doppler_check", "physics_doppler_track",
            "gate_windmills", "gate_sfdr", "signature_edge_hz"]
 
 
@@ -345,6 +345,12 @@ def _gate_edge_physics(farm, members: list[int], wavelength_m: float, side_sign:
     nearest = min(max(side_sign * measured, low), high)
     distance = [max(c - nearest, nearest - f, 0.0) for c, f, _ in spans]
     return side_sign * nearest, spans[int(np.argmin(distance))][2]
+
+
+def doppler_aliased(e: E2E) -> bool:
+    """Whether a turbine's maximum Doppler reaches ±PRF/2, where the radar's
+    slow time aliases it (:func:`doppler_check` then has no edge to find)."""
+    return max(s.plan.max_doppler_hz for s in e.streams.streams) >= e.farm.radar.prf_hz / 2
 
 
 def doppler_check(e: E2E, spectra: list) -> list[dict]:

@@ -197,43 +197,54 @@ def save_gate_grid(path, times_s: np.ndarray, doppler_hz: np.ndarray, gates: lis
 
 def save_range_doppler(farm, bins: list[RangeBin], spectra: list[Spectrogram], path, *,
                        dynamic_range_db: float = 90.0, zoom_hz: float | None = None,
-                       title: str | None = None) -> None:
+                       title: str | None = None, beside: tuple | None = None) -> None:
     """A farm's range-Doppler map: one row per range bin (at its range), the
     whole Doppler band ±PRF/2 across, colour the bin's peak power over all CPIs
     (max hold, dB relative to the farm's peak). White ticks mark ±max Doppler of
-    the windmills at each bin's own range."""
-    held = np.array([s.power_db.max(axis=0) for s in spectra])          # (bins, doppler)
-    reference = float(held.max())
+    the windmills at each bin's own range. ``beside`` = ``(label, other_label,
+    other_spectra)``: a second map of the same bins to the right, on the same
+    colour scale (a cosimulation's RTL beside its model)."""
+    maps = [(None, spectra)] if beside is None else [(beside[0], spectra), (beside[1], beside[2])]
+    held = [np.array([s.power_db.max(axis=0) for s in sp]) for _, sp in maps]     # (bins, doppler) each
+    reference = max(float(h.max()) for h in held)
     ranges = np.array([b.range_km for b in bins])
-    if ranges.size > 1:
-        mids = (ranges[1:] + ranges[:-1]) / 2
-        edges = np.concatenate([[ranges[0] - (mids[0] - ranges[0])], mids,
-                                [ranges[-1] + (ranges[-1] - mids[-1])]])
-    else:
-        edges = np.array([ranges[0] - 0.05, ranges[0] + 0.05])
+    # each bin a band to half way to its neighbours, at most 1 % of the ranges
+    # shown either side (farms kilometres apart leave empty range between them)
+    cap = max(0.01 * float(np.ptp(ranges)), 0.05)
+    gap_below = np.diff(ranges, prepend=-np.inf) / 2
+    gap_above = np.diff(ranges, append=np.inf) / 2
+    low_edges, high_edges = ranges - np.minimum(gap_below, cap), ranges + np.minimum(gap_above, cap)
+    edges = np.unique(np.concatenate([low_edges, high_edges]))
+    row = np.searchsorted(edges, ranges) - 1          # the row of ``edges`` each bin fills
     doppler = spectra[0].doppler_hz
     half = spectra[0].resolution_hz / 2
     d_edges = np.concatenate([doppler - half, [doppler[-1] + half]])
-    fig, ax = plt.subplots(figsize=(9, 7), layout="constrained")
-    mesh = ax.pcolormesh(d_edges, edges, held - reference, vmin=-dynamic_range_db, vmax=0,
-                         cmap="viridis", shading="flat")
+    fig, axes = plt.subplots(1, len(maps), figsize=(9 * len(maps), 7), layout="constrained", squeeze=False,
+                             sharey=True)
     wavelength = farm.radar.wavelength_m
-    for b, low, high in zip(bins, edges[:-1], edges[1:]):
-        for i in b.members:
-            w = farm.windmills[i]
-            if w.range_km == b.range_km:
-                f = max_doppler_hz(w, wavelength)
-                ax.vlines([-f, f], low, high, colors="white", linewidth=0.8)
     radar = farm.radar
-    ax.set_xlim(d_edges[0], d_edges[-1])
-    if zoom_hz is not None:
-        ax.set_xlim(max(-zoom_hz, d_edges[0]), min(zoom_hz, d_edges[-1]))
-    ax.set_ylim(edges[0], edges[-1])
-    ax.set_xlabel("Doppler (Hz)")
-    ax.set_ylabel("range bin (km)")
-    ax.set_title(title or (f"{len(farm.windmills)} windmills in {len(bins)} range bins: peak over "
+    for ax, (label, _), h in zip(axes[0], maps, held):
+        rows = np.full((edges.size - 1, h.shape[1]), np.nan)       # the rows between bins stay empty
+        rows[row] = h - reference
+        mesh = ax.pcolormesh(d_edges, edges, np.ma.masked_invalid(rows), vmin=-dynamic_range_db, vmax=0,
+                             cmap="viridis", shading="flat")
+        for b, low, high in zip(bins, low_edges, high_edges):
+            for i in b.members:
+                w = farm.windmills[i]
+                if w.range_km == b.range_km:
+                    f = max_doppler_hz(w, wavelength)
+                    ax.vlines([-f, f], low, high, colors="white", linewidth=0.8)
+        ax.set_xlim(d_edges[0], d_edges[-1])
+        if zoom_hz is not None:
+            ax.set_xlim(max(-zoom_hz, d_edges[0]), min(zoom_hz, d_edges[-1]))
+            ax.set_ylim(edges[0], edges[-1])
+        ax.set_xlabel("Doppler (Hz)")
+        if label:
+            ax.set_title(label, fontsize=10)
+    axes[0, 0].set_ylabel("range bin (km)")
+    fig.suptitle(title or (f"{len(farm.windmills)} windmills in {len(bins)} range bins: peak over "
                            f"{spectra[0].times_s.size} CPIs — {radar.frequency_mhz / 1e3:g} GHz, "
                            f"PRF {radar.prf_hz / 1e3:g} kHz, CPI {radar.cpi_ms:g} ms"), fontsize=10)
-    fig.colorbar(mesh, ax=ax, label="power (dB rel. peak)")
+    fig.colorbar(mesh, ax=axes[0, -1], label="power (dB rel. peak)")
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
