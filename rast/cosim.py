@@ -298,7 +298,7 @@ def run(args) -> int:
                   "output saturated    " + ("yes (OVERFLOW set, as in the model): " + e.streams.echo_sum().describe()
                                             if rep["overflow"] else "no"),
                   f"RTL run time        {rep['rtl_wall_s']:.1f} s wall, "
-                  f"{rep['samples_per_s'] / 1e6:.2f} M simulated samples/s",
+                  f"{rep['samples_per_s']:,.0f} simulated samples/s",
                   f"model wait          {rep['model_s']:.1f} s (the model runs beside the RTL)",
                   f"spectrograms equal  {rep['spectrograms_equal'] if rep['doppler'] else 'n/a (less than one CPI)'}"]
         if rep.get("sfdr"):

@@ -258,7 +258,7 @@ class BulkBench:
                 done_in = int(self.dut.in_idx.value)
                 el = time.monotonic() - t0
                 print(f"[rast cosim] {done_in / job.n_in:6.1%}  {done_in:>11,d}/{job.n_in:,d} samples  "
-                      f"{el:6.1f} s  {done_in / max(el, 1e-9) / 1e6:5.2f} M samples/s",
+                      f"{el:6.1f} s  {done_in / max(el, 1e-9):9,.0f} samples/s",
                       file=sys.stderr, flush=True)
         wall, cpu = time.monotonic() - t0, time.process_time() - c0
         summary = bulk.read_summary(d)
