@@ -221,6 +221,16 @@ def parse_nextpnr_report(path):
     return clocks, util, rep
 
 
+_UTILISATION = re.compile(r"^Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", re.M)
+
+
+def overused_resources(nextpnr_log: str) -> list:
+    """``[(resource, used, available), ...]`` of nextpnr's device utilisation
+    above 100 % (a design that cannot be placed), in the log's order."""
+    return [(name, int(used), int(avail)) for name, used, avail in _UTILISATION.findall(nextpnr_log)
+            if int(used) > int(avail)]
+
+
 def parse_yosys_stat(log_text):
     """Cell counts of the last ``stat`` in a Yosys log: {cell type: count}."""
     blocks = log_text.split("Printing statistics.")
@@ -508,8 +518,16 @@ def build(cfg: BuildConfig, out_dir, *, quiet=False, run_tools=True, env=None):
            "--speed", str(platform.speed), "--json", f"{NAME}.json", "--lpf", f"{NAME}.lpf",
            "--textcfg", f"{NAME}.config", "--report", f"{NAME}.report.json",
            "--timing-allow-fail", "--seed", str(cfg.seed), *nextpnr_options(cfg.extra_nextpnr)]
-    times["pnr"] = round(_run(pnr, out, env, "nextpnr.out", progress, _NEXTPNR_SHOW,
-                              router_stall_s=ROUTER_STALL_S), 1)
+    try:
+        times["pnr"] = round(_run(pnr, out, env, "nextpnr.out", progress, _NEXTPNR_SHOW,
+                                  router_stall_s=ROUTER_STALL_S), 1)
+    except BuildError:
+        over = overused_resources((out / "nextpnr.out").read_text(errors="replace"))
+        if over:
+            raise BuildError(f"the design does not fit the {platform.device}: " + ", ".join(
+                f"{name} {used:,} of {available:,} ({100 * used / available:.0f} %)"
+                for name, used, available in over) + f" (nextpnr's log: {out / 'nextpnr.out'})") from None
+        raise
     times["pack"] = round(_run([env["ECPPACK"], "--compress", "--input", f"{NAME}.config",
                                 "--bit", f"{NAME}.bit"], out, env, "ecppack.out", progress), 1)
 

@@ -366,3 +366,18 @@ def test_a_router_that_stops_converging_fails_the_build(tmp_path):
     done = tmp_path / "done.py"
     done.write_text(f"import time\nfor l in {lines!r}:\n    print(l, flush=True)\n    time.sleep(0.05)\n")
     b._run([sys.executable, str(done)], tmp_path, None, "log", lambda m: None, router_stall_s=0.4)
+
+
+def test_a_design_that_does_not_fit_is_told_by_the_resources_over_100_percent():
+    """nextpnr's utilisation lines of the 512-channel, 2.5 MS/s SDRAM build as
+    first synthesised (it could not be placed): the resources above 100 % are
+    the ones `rast build` names; a resource at exactly 100 % is not over."""
+    from rast.gateware.build import overused_resources
+    log = ("Info: Device utilisation:\n"
+           "Info: \t          TRELLIS_IO:      84/    365    23%\n"
+           "Info: \t              DP16KD:      96/    208    46%\n"
+           "Info: \t          TRELLIS_FF:  114852/  83640   137%\n"
+           "Info: \t        TRELLIS_COMB:  183747/  83640   219%\n"
+           "Info: \t        TRELLIS_RAMW:   10455/  10455   100%\n")
+    assert overused_resources(log) == [("TRELLIS_FF", 114852, 83640), ("TRELLIS_COMB", 183747, 83640)]
+    assert overused_resources(log.replace("114852", "83640").replace("183747", "1")) == []
