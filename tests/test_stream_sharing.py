@@ -4,6 +4,7 @@ load and the bit-exact model play them as the unshared farm does, and
 aspect sharing stops where the measured SFDR says."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -147,11 +148,21 @@ def test_aspect_sharing_refuses_a_stream_of_another_doppler_extent():
     refused = {r[0]: r for r in fs.refused_shares}
     assert set(refused) == {"t0", "t1", "t3"} and {r[1] for r in refused.values()} == {"t2"}
     guard = 6 / 0.064
-    assert refused["t0"][3] < -guard and refused["t0"][2] >= 70       # short of its band, no spur
+    # short of its band, which covers the whole of the stream's: no SFDR to measure (NaN), refused
+    assert refused["t0"][3] < -guard and math.isnan(refused["t0"][2])
     assert refused["t3"][3] > guard and refused["t3"][2] < 70         # past its band: spurs
     farm = parse_config(data)
     assert fs.streams[3].plan == plan_stream(farm.windmills[3], farm)   # its own stream
     assert "kept their own stream" in fs.sharing_summary()
+
+
+def test_the_doppler_extent_alone_refuses_a_stream_whose_sfdr_passes():
+    """A 20-degree turbine on a 40-degree turbine's stream: the SFDR measured
+    outside its band passes (94 dB), but the stream's maximum Doppler lies
+    218 Hz (more than 6 bins) short of the turbine's: refused."""
+    fs = build_farm_streams(parse_config(_config(True, [0.0, 10.0], [20.0, 40.0], share_aspect_deg=30.0)))
+    ((name, stream, sfdr_db, doppler_error_hz),) = fs.refused_shares
+    assert (name, stream) == ("t0", "t1") and 70 <= sfdr_db < math.inf and doppler_error_hz < -6 / 0.064
 
 
 def test_aspect_sharing_follows_the_measured_sfdr():

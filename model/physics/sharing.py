@@ -172,12 +172,16 @@ def shared_replay_sfdr(windmill_max_doppler_hz: float, words, stream_rate_hz: fl
     exactly, so its DFT needs no window. Measured on the stream, not on the
     radar's pulses: an air-traffic radar's PRF aliases a turbine's Doppler
     over its whole band, which would leave no line outside it to measure;
-    the stream's rate holds the whole band."""
+    the stream's rate holds the whole band. NaN when the stream's band holds
+    nothing outside the windmill's (a stream at about twice its maximum
+    Doppler): nothing measured, and the share is refused."""
     from rast.model.contract import fixedpoint as fx
 
     i, q = fx.unpack_iq(np.asarray(words, dtype=np.int64))
     power = np.abs(np.fft.fft(i + 1j * q)) ** 2
     freqs = np.fft.fftfreq(power.size, 1.0 / stream_rate_hz)
     outside = np.abs(freqs) > windmill_max_doppler_hz + guard_bins / cpi_s
-    spur = power[outside].max() if outside.any() else 0.0
+    if not outside.any():
+        return math.nan
+    spur = power[outside].max()
     return math.inf if spur == 0 else float(10 * np.log10(power.max() / spur))

@@ -372,10 +372,14 @@ class FarmStreams:
         if not self.refused_shares:
             return ""
         guard = GUARD_BINS / (self.farm.radar.cpi_ms * 1e-3)
-        name, stream, sfdr_db, doppler = min(self.refused_shares, key=lambda r: (r[2], -abs(r[3])))
+        # NaN (nothing outside the band to measure) first: the worst is what could not be measured
+        name, stream, sfdr_db, doppler = min(self.refused_shares,
+                                             key=lambda r: (-math.inf if math.isnan(r[2]) else r[2], -abs(r[3])))
+        sfdr = ("no SFDR measurable, the stream's band holds nothing outside the windmill's: "
+                "raise stream_oversampling" if math.isnan(sfdr_db) else f"{sfdr_db:.1f} dB")
         return (f"; {len(self.refused_shares)} kept their own stream (an aspect-shared stream must keep "
                 f"{self.farm.sharing.min_sfdr_db:g} dB of SFDR and its maximum Doppler within {guard:.3g} Hz; "
-                f"worst {name!r} on {stream!r}'s: {sfdr_db:.1f} dB, {doppler:+.3g} Hz)")
+                f"worst {name!r} on {stream!r}'s: {sfdr}, {doppler:+.3g} Hz)")
 
     def smallest_contract(self, channels: int | None = None) -> fx.ReplayContract:
         """The smallest replay block that holds these streams (all of them in
@@ -574,7 +578,8 @@ def _share_streams(farm: Farm, groups, offsets, streams, sink, own, nearest_km) 
                 cpi_s = farm.radar.cpi_ms * 1e-3
                 sfdr_of[k] = shared_replay_sfdr(plan.max_doppler_hz - doppler_error[k], packed,
                                                 plan.stream_rate_hz, cpi_s)
-                if sfdr_of[k] < farm.sharing.min_sfdr_db or abs(doppler_error[k]) > GUARD_BINS / cpi_s:
+                # (NaN, nothing outside the band to measure, is not at least the minimum)
+                if not sfdr_of[k] >= farm.sharing.min_sfdr_db or abs(doppler_error[k]) > GUARD_BINS / cpi_s:
                     refused.append((w.name, first.windmill.name, sfdr_of[k], doppler_error[k]))
                     streams[k] = own(k)
                     continue
