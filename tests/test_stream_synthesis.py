@@ -44,9 +44,14 @@ def error_dbc(period, windmill, length, wavelength_m, samples=None, seed=0):
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_every_example_is_within_minus_100_dbc_of_the_reference(path):
+    """Every stream made for its own windmill; a windmill that plays another's
+    stream (share_streams: another start angle or aspect) is judged by the
+    sharing's own checks (tests/test_stream_sharing.py), not by this one."""
     farm = load_config(path)
     streams = build_farm_streams(farm, check_ram_depth=False)
-    for s in streams.streams:
+    own = [s for s in streams.streams if s.share is None or s.share.stream == s.windmill.name]
+    assert own
+    for s in own:
         assert error_dbc(s.period, s.windmill, s.plan.length, farm.radar.wavelength_m) <= LIMIT_DBC
 
 
