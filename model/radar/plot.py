@@ -237,7 +237,7 @@ def save_range_doppler(farm, bins: list[RangeBin], spectra: list[Spectrogram], p
         ax.set_xlim(d_edges[0], d_edges[-1])
         if zoom_hz is not None:
             ax.set_xlim(max(-zoom_hz, d_edges[0]), min(zoom_hz, d_edges[-1]))
-            ax.set_ylim(edges[0], edges[-1])
+        ax.set_ylim(edges[0], edges[-1])
         ax.set_xlabel("Doppler (Hz)")
         if label:
             ax.set_title(label, fontsize=10)
