@@ -4,6 +4,7 @@ what the host and the contract need for more than 255 channels."""
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from rast.model.contract.fixedpoint import ReplayContract
@@ -129,3 +130,14 @@ def test_the_cosimulation_leaves_out_the_doppler_check_where_the_prf_aliases():
     assert max(s.plan.max_doppler_hz for s in atc512.streams.streams) > 500 and doppler_aliased(atc512)
     sband = prepare(EXAMPLES / "farm_atc_sband.toml", 0.01)
     assert max(s.plan.max_doppler_hz for s in sband.streams.streams) < 500 and not doppler_aliased(sband)
+
+
+def test_a_range_doppler_map_leaves_the_range_between_farms_empty():
+    """Bins at 10.00 and 10.06 km and one at 30 km: the close pair meet half
+    way (10.03), the outer sides reach 1 % of the 20 km shown (0.2 km), and
+    the 19.5 km between 10.26 and 29.8 is a row of its own that no bin fills."""
+    from rast.model.radar.plot import range_bands
+    edges, row, low, high = range_bands([10.0, 10.06, 30.0])
+    assert np.allclose(edges, [9.8, 10.03, 10.26, 29.8, 30.2])
+    assert list(row) == [0, 1, 3] and 2 not in row
+    assert np.allclose(low, [9.8, 10.03, 29.8]) and np.allclose(high, [10.03, 10.26, 30.2])

@@ -16,7 +16,7 @@ from rast.model.radar.receiver import RangeBin, Spectrogram  # noqa: E402
 from rast.model.radar.sfdr import SfdrResult  # noqa: E402
 from rast.model.physics.turbine import max_doppler_hz  # noqa: E402
 
-__all__ = ["draw_spectrogram", "save_preview", "save_range_doppler", "save_gate_grid", "grid_columns",
+__all__ = ["draw_spectrogram", "save_preview", "save_range_doppler", "range_bands", "save_gate_grid", "grid_columns",
            "gate_title", "MAX_PANELS", "STACKED_PANELS"]
 
 #: ``rast preview`` draws one spectrogram panel per range bin up to this many
@@ -195,6 +195,21 @@ def save_gate_grid(path, times_s: np.ndarray, doppler_hz: np.ndarray, gates: lis
     plt.close(fig)
 
 
+def range_bands(ranges_km):
+    """The rows of a range-Doppler map for bins at ``ranges_km`` (ascending):
+    ``(edges, row, low, high)``: each bin a band from ``low`` to ``high``, half
+    way to its neighbours but at most 1 % of the ranges shown (0.05 km at
+    least) either side, so that farms kilometres apart leave the range between
+    them empty; ``edges`` every band's limits, ``row[k]`` the row of ``edges``
+    bin k fills (the others are the gaps)."""
+    ranges = np.asarray(ranges_km, dtype=float)
+    cap = max(0.01 * float(np.ptp(ranges)), 0.05)
+    low = ranges - np.minimum(np.diff(ranges, prepend=-np.inf) / 2, cap)
+    high = ranges + np.minimum(np.diff(ranges, append=np.inf) / 2, cap)
+    edges = np.unique(np.concatenate([low, high]))
+    return edges, np.searchsorted(edges, ranges) - 1, low, high
+
+
 def save_range_doppler(farm, bins: list[RangeBin], spectra: list[Spectrogram], path, *,
                        dynamic_range_db: float = 90.0, zoom_hz: float | None = None,
                        title: str | None = None, beside: tuple | None = None) -> None:
@@ -207,15 +222,7 @@ def save_range_doppler(farm, bins: list[RangeBin], spectra: list[Spectrogram], p
     maps = [(None, spectra)] if beside is None else [(beside[0], spectra), (beside[1], beside[2])]
     held = [np.array([s.power_db.max(axis=0) for s in sp]) for _, sp in maps]     # (bins, doppler) each
     reference = max(float(h.max()) for h in held)
-    ranges = np.array([b.range_km for b in bins])
-    # each bin a band to half way to its neighbours, at most 1 % of the ranges
-    # shown either side (farms kilometres apart leave empty range between them)
-    cap = max(0.01 * float(np.ptp(ranges)), 0.05)
-    gap_below = np.diff(ranges, prepend=-np.inf) / 2
-    gap_above = np.diff(ranges, append=np.inf) / 2
-    low_edges, high_edges = ranges - np.minimum(gap_below, cap), ranges + np.minimum(gap_above, cap)
-    edges = np.unique(np.concatenate([low_edges, high_edges]))
-    row = np.searchsorted(edges, ranges) - 1          # the row of ``edges`` each bin fills
+    edges, row, low_edges, high_edges = range_bands([b.range_km for b in bins])
     doppler = spectra[0].doppler_hz
     half = spectra[0].resolution_hz / 2
     d_edges = np.concatenate([doppler - half, [doppler[-1] + half]])
