@@ -55,13 +55,13 @@ def layout_rows(seed=512):
         across = a + np.pi / 2
         e0, n0 = range_km * 1e3 * np.sin(b), range_km * 1e3 * np.cos(b)
         count = n_rows * per_row
+        swept = np.pi * (rotor / 2) ** 2
         for r in range(n_rows):
             for k in range(per_row):
                 jitter = rng.uniform(-JITTER_M, JITTER_M, size=2)
                 e = e0 + k * spacing * np.sin(a) + r * row_gap * np.sin(across) + jitter[0]
                 n = n0 + k * spacing * np.cos(a) + r * row_gap * np.cos(across) + jitter[1]
                 lat, lon = _offset(RADAR_LAT, RADAR_LON, e, n)
-                swept = np.pi * (rotor / 2) ** 2
                 rows.append(f'{case},,,,,TX,"Synthetic County, TX",48999,{name},{year},{count},'
                             f"{count * cap / 1000:.1f},{manu},{model},{cap},{hub},{rotor},{swept:.2f},"
                             f"{hub + rotor / 2:.1f},0,,3,3,,synthetic,{lon:.6f},{lat:.6f}")
@@ -82,5 +82,6 @@ HEADER = f"""\
 
 if __name__ == "__main__":
     path = Path(__file__).with_name("farm_layout_atc_512.csv")
-    path.write_text(HEADER + COLUMNS + "\n" + "\n".join(layout_rows()) + "\n")
-    print(f"wrote {path} ({len(layout_rows())} turbines)")
+    rows = layout_rows()
+    path.write_text(HEADER + COLUMNS + "\n" + "\n".join(rows) + "\n")
+    print(f"wrote {path} ({len(rows)} turbines)")

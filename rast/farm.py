@@ -32,17 +32,22 @@ def _triple(text: str) -> tuple[float, float, float]:
     return values
 
 
-def _number(what: str):
-    """An argparse type: a positive finite number."""
+def _real(what: str, accept):
+    """An argparse type: a number for which ``accept`` holds (NaN for none)."""
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
             value = float("nan")
-        if not 0 < value < float("inf"):
+        if not accept(value):
             raise argparse.ArgumentTypeError(f"must be {what}, not {text}")
         return value
     return parse
+
+
+def _number(what: str):
+    """An argparse type: a positive finite number."""
+    return _real(what, lambda v: 0 < v < float("inf"))
 
 
 def _words(text: str) -> int:
@@ -56,26 +61,9 @@ def _words(text: str) -> int:
     return value
 
 
-def _bearing(text: str) -> float:
-    """An argparse type: a bearing in [0, 360) degrees."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 <= value < 360:
-        raise argparse.ArgumentTypeError(f"must be a bearing in [0, 360) degrees, not {text}")
-    return value
-
-
-def _angle(text: str) -> float:
-    """An argparse type: an angle in [0, 180] degrees."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 <= value <= 180:
-        raise argparse.ArgumentTypeError(f"must be an angle in [0, 180] degrees, not {text}")
-    return value
+#: argparse types: a bearing in [0, 360) degrees, an angle in [0, 180] degrees
+_bearing = _real("a bearing in [0, 360) degrees", lambda v: 0 <= v < 360)
+_angle = _real("an angle in [0, 180] degrees", lambda v: 0 <= v <= 180)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
