@@ -79,6 +79,9 @@ class ChannelPipeline(wiring.Component):
     window_sites : sequence of str or None
         On ECP5: the block-RAM sites of the window's block RAMs
         (:class:`DelayLine` ``sites``), or ``None`` to leave them to the placer.
+    pattern_site : str or None
+        With the antenna scan, on ECP5: the pattern table's block-RAM site
+        (:class:`PatternGain` ``site``), or ``None``.
 
     Members
     -------
@@ -119,7 +122,7 @@ class ChannelPipeline(wiring.Component):
     """
 
     def __init__(self, contract, index, slot_inits, regs_layout, values_layout, *, window_sites=None,
-                 win_data_lag=0):
+                 pattern_site=None, win_data_lag=0):
         if not isinstance(contract, ReplayContract):
             raise TypeError(f"Contract must be a ReplayContract, not {contract!r}")
         M = contract.slots
@@ -138,6 +141,7 @@ class ChannelPipeline(wiring.Component):
         self._select = RegisterSelect(contract, regs_layout, values_layout)
         self._state = SlotState(contract, slot_inits, self._select.rsel.shape())
         self._product = ProductSum(contract, GAIN_INPUT_DELAY + PatternGain.latency if contract.scan else 0)
+        self._pattern = PatternGain(site=pattern_site) if contract.scan else None
         super().__init__({
             "accept": In(1),
             "regs": In(regs_layout).array(M),
@@ -257,7 +261,7 @@ class ChannelPipeline(wiring.Component):
         its AZIMUTH, GAIN_INPUT_DELAY + PatternGain.latency clocks after the
         visit (the product stage waits that long for it)."""
         V = visit_cycles(self._c.slots)
-        m.submodules.pattern_gain = pg = PatternGain()
+        m.submodules.pattern_gain = pg = self._pattern
         beam = delayed(m, self.beam, V + GAIN_INPUT_DELAY - BEAM_CLOCK, "beam", data=True)
         p = self.pattern
         m.d.comb += [pg.gain.eq(delayed(m, geff, GAIN_INPUT_DELAY, "pg_gain", data=True)),

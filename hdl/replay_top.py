@@ -376,11 +376,15 @@ class WindFarmReplay(wiring.Component):
         win_mode = dp16kd_mode(2 * INPUT_WIDTH, c.window_depth)
         rows = block_ram_rows(platform)
         per_row = -(-mode[1] // len(rows)) if mode and rows else 0
+        # a pipeline's block: its window's sites, then its pattern table's
+        # (the placer's free choice put a table's block RAM 6.2 ns of one
+        # route from its pipeline, the scan build's latest path at two seeds)
+        block = (win_mode[1] + int(c.scan)) if win_mode else 0
         pool = None if sdram else StreamPool(c.pool_words, pool_tag.size, init=self._pool_init,
-                                             reserve_sites=per_row, block_sites=win_mode[1] if win_mode else 0)
+                                             reserve_sites=per_row, block_sites=block)
         reserved = pool and pool.reserved_sites(platform)
         window_blocks = (pool and pool.free_blocks(platform, P)) or []
-        if sdram and mode and win_mode and (plan := delay_line_floorplan(rows, per_row, win_mode[1], P)):
+        if sdram and mode and win_mode and (plan := delay_line_floorplan(rows, per_row, block, P)):
             reserved, window_blocks = plan
         common_bits = DelayLine.slice_bits(2 * INPUT_WIDTH, c.max_delay, COMMON_LAG)
         common_groups = -(-2 * INPUT_WIDTH // common_bits)
@@ -417,7 +421,10 @@ class WindFarmReplay(wiring.Component):
             m.d.sync += [cnt.eq(cnt + 1), cnt_read.eq(cnt_read + 1)]
         m.d.comb += [common.w_en.eq(written), common.w_index.eq(cnt), common.w_data.eq(x),
                      common.r_index.eq(cnt_read), common.r_delay.eq(regs.common_delay_next)]
-        env.__dict__.update(common=common, pool=pool, pool_tag=pool_tag, window_blocks=window_blocks)
+        window_sites = [b[:win_mode[1]] for b in window_blocks]
+        pattern_sites = [b[-1] for b in window_blocks] if c.scan else []
+        env.__dict__.update(common=common, pool=pool, pool_tag=pool_tag, window_sites=window_sites,
+                            pattern_sites=pattern_sites)
 
     def _pool_and_scan(self, env):
         """The stream pool and the fetch scan that offers each pipeline's slots a fetch."""
@@ -542,7 +549,8 @@ class WindFarmReplay(wiring.Component):
         fill_copies, fill_data, fill_pairs = env.fill_copies, env.fill_data, env.fill_pairs
         fill_tag, fill_valid, m, platform = env.fill_tag, env.fill_valid, env.m, env.platform
         pool_tag, regs, regs_layout, scan = env.pool_tag, env.regs, env.regs_layout, env.scan
-        stepped, values_layout, window_blocks = env.stepped, env.values_layout, env.window_blocks
+        stepped, values_layout = env.stepped, env.values_layout
+        window_sites, pattern_sites = env.window_sites, env.pattern_sites
         # ---- the pipelines ---------------------------------------------------------
         pipes = []
         reqs = []
@@ -566,7 +574,8 @@ class WindFarmReplay(wiring.Component):
         for p in range(P):
             win_data = copies[(win_data_lag, p >> 1)] if win_data_lag else copies[(0, p // 4)]
             pl = ChannelPipeline(c, p, self._slot_inits(p), regs_layout, values_layout,
-                                 window_sites=window_blocks[p] if p < len(window_blocks) else None,
+                                 window_sites=window_sites[p] if p < len(window_sites) else None,
+                                 pattern_site=pattern_sites[p] if p < len(pattern_sites) else None,
                                  win_data_lag=win_data_lag)
             m.submodules[f"pipe{p}"] = pl
             pipes.append(pl)

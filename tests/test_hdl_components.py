@@ -336,6 +336,35 @@ def test_an_sdram_build_places_its_delay_lines(channels, slots):
         assert (0, False) in used and (1, True) in used or (0, True) in used and (1, False) in used
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("pool", ["bram", "sdram"])
+def test_each_pattern_table_lies_beside_its_pipelines_window(pool):
+    """With the antenna scan, each pipeline's pattern table has the site
+    right after its window's four, in the same row (its block holds five),
+    for the default build's pool and for an SDRAM build; no site used
+    twice."""
+    import re
+    from amaranth.back import rtlil
+    from rast.hdl.ecp5_primitives import block_ram_rows
+    rows = block_ram_rows(_85F())
+    words = 65536 if pool == "bram" else 1 << 20
+    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(64, slots=8, pool=pool, pool_words=words, max_delay=8190,
+                                                     max_tap=2046, scan=True), platform=_85F()))
+    assert None not in bels.values() and len(set(bels.values())) == len(bels)
+    windows, tables = {}, {}
+    for path, bel in bels.items():
+        p = re.search(r"pipe(\d+)", path)
+        if p and "window" in path:
+            windows.setdefault(int(p.group(1)), []).append(bel)
+        elif p and "pattern_gain" in path:
+            tables[int(p.group(1))] = bel
+    assert sorted(windows) == sorted(tables) == list(range(8))
+    for p in range(8):
+        (row,) = [r for r in rows if tables[p] in r]
+        index = sorted(row.index(bel) for bel in windows[p])
+        assert index == list(range(index[0], index[0] + 4)) and row.index(tables[p]) == index[0] + 4, p
+
+
 def test_stream_pool_no_floorplan_where_rows_lack_room():
     """Seven banks do not fit a row of 52 sites with a group each: no floorplan."""
     from amaranth.back import rtlil

@@ -196,7 +196,7 @@ def test_stare_beam_is_zero():
 # ------------------------------------------------------------------ the pattern gain
 
 
-@pytest.mark.parametrize("beamwidth, sidelobe", [(1.4, -50.0), (12.0, -40.0), (60.0, -30.0)])
+@pytest.mark.parametrize("beamwidth, sidelobe", [(1.4, -50.0), (12.0, -40.0), (60.0, -30.0), (100.0, -30.0)])
 def test_pattern_gain_is_the_contracts(beamwidth, sidelobe):
     """Random gains, azimuths and beams, the scan on and off: the output
     ``latency`` clocks later is scanned_gain(gain, pattern_lookup(beam − az))."""

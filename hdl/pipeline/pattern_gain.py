@@ -2,7 +2,7 @@
 two-way pattern at the beam's offset from the channel's azimuth (the
 contract's rule, ``rast.model.contract.scan``; docs/antenna_scan.md)."""
 
-from amaranth.hdl import Module, Signal, Mux
+from amaranth.hdl import Cat, Module, Signal, Mux
 from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -36,17 +36,30 @@ class PatternGain(wiring.Component):
     for ``beam − azimuth`` (the floor word beyond the table's span; 2**15,
     0 dB, when ``scan`` is off), :attr:`latency` clocks after its inputs.
 
-    The stages: the offset (and the span's half from ``shift``); the offset
-    plus that half; the table's index and whether the offset lies in its
-    span (``shift`` 0..6); the table's read (one block RAM and its
-    own output register, its write port from the register file); the word
-    or the floor; the product (one MULT18X18D with input and output
-    registers); the rounding. (The block RAM's read without its output
-    register, and the floor's choice, in one clock were the scan build's
-    latest path at seed 2: 10.6 ns, 94.7 MHz; the offset's add of the
-    half-span and the span's check in one clock at seed 1 of ``0f00145``,
-    6.7 ns, 148.4 MHz. ``latency`` + GAIN_INPUT_DELAY is the product stage's
+    The contract's index ``(o + h) >> shift``, ``h = 2**(9 + shift)``, needs no
+    adder: ``h`` has one bit set, so the sum is the signed offset ``o`` with
+    bit ``9 + shift`` inverted, and it lies in the table's span ``[0, 2h)``
+    exactly where ``o``'s bits from ``9 + shift`` up are all equal (``o``
+    fits in ``10 + shift`` signed bits).
+
+    The stages: the offset; the table's index and whether the offset lies in
+    its span (``shift`` 0..6); the table's read (one block RAM and its own
+    output register, its write port from the register file); the word in a
+    fabric register; the word or the floor; the product (one MULT18X18D
+    with input and output registers); the rounding. (The block RAM's read
+    without its output register, and the floor's choice, in one clock were
+    the scan build's latest path at seed 2: 10.6 ns, 94.7 MHz; the offset's
+    add of the half-span and the span's check in one clock at seed 1 of
+    ``0f00145``, 6.7 ns, 148.4 MHz; the block RAM's output register into the
+    floor's choice at seeds 4 and 5 of ``c424cbb``, 6.2 ns of one route,
+    132.6 MHz. ``latency`` + GAIN_INPUT_DELAY is the product stage's
     ``max_gain_lag`` at the four-multiplier product, 11 clocks.)
+
+    Parameters
+    ----------
+    site : str or None
+        On ECP5, the block-RAM site of the table (a nextpnr bel name), or
+        ``None`` to leave it to the placer.
 
     Members
     -------
@@ -61,7 +74,10 @@ class PatternGain(wiring.Component):
 
     latency = 9
 
-    def __init__(self):
+    def __init__(self, *, site=None):
+        if site is not None and not isinstance(site, str):
+            raise ValueError(f"Pattern table site must be a bel name or None, not {site!r}")
+        self._site = site
         super().__init__({
             "gain": In(GAIN_WIDTH), "azimuth": In(AZIMUTH_BITS), "beam": In(AZIMUTH_BITS),
             "scan": In(1), "shift": In(3), "floor": In(PATTERN_WIDTH),
@@ -71,42 +87,36 @@ class PatternGain(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
+        I = PATTERN_INDEX_BITS
         offset = Signal(AZIMUTH_BITS)
         m.d.sync += offset.eq(self.beam - self.azimuth)                               # 1
-        # the table's span from the shift, in registers beside the offset's
-        half = Signal(AZIMUTH_BITS, name="half_span")        # 2**(index bits - 1 + shift)
-        known = Signal(name="shift_known")                   # shift <= MAX_PATTERN_SHIFT
-        with m.Switch(self.shift):
+        index, inside = Signal(I), Signal()
+        shift = delayed(m, self.shift, 1, "shift")
+        with m.Switch(shift):                                                         # 2
             for k in range(MAX_PATTERN_SHIFT + 1):
+                top = offset[k + I - 1:]                     # the sign and its extension
                 with m.Case(k):
-                    m.d.sync += [half.eq(1 << (PATTERN_INDEX_BITS - 1 + k)), known.eq(1)]
-            with m.Default():
-                m.d.sync += [half.eq(0), known.eq(0)]
-        u = Signal(AZIMUTH_BITS + 1, name="u")               # offset + half: [0, 2 half) inside the span
-        m.d.sync += u.eq(offset.as_signed() + half)                                   # 2
-        index, inside = Signal(PATTERN_INDEX_BITS), Signal()
-        shift, known = delayed(m, self.shift, 2, "shift"), delayed(m, known, 1, "known")
-        with m.Switch(shift):                                                         # 3
-            for k in range(MAX_PATTERN_SHIFT + 1):
-                with m.Case(k):
-                    m.d.sync += [index.eq(u[k:k + PATTERN_INDEX_BITS]),
-                                 inside.eq(known & (u[k + PATTERN_INDEX_BITS:] == 0))]
+                    m.d.sync += [index.eq(Cat(offset[k:k + I - 1], ~offset[k + I - 1])),
+                                 inside.eq((top == 0) | (top == (1 << len(top)) - 1))]
             with m.Default():
                 m.d.sync += [index.eq(0), inside.eq(0)]
         m.submodules.table = table = RegisteredRAM(PATTERN_WIDTH, PATTERN_ENTRIES, continuous=True,
-                                                   output_reset=False)
+                                                   output_reset=False,
+                                                   sites=None if self._site is None else (self._site,))
         m.d.comb += [table.w_en.eq(self.w_en), table.w_addr.eq(self.w_addr), table.w_data.eq(self.w_data),
-                     table.r_addr.eq(index)]                                          # 4, 5: the read
-        read = 3 + table.latency             # the clock the table's word is out
-        inside_r = delayed(m, inside, table.latency, "inside")
-        scan_r, floor_r = delayed(m, self.scan, read, "scan"), delayed(m, self.floor, read, "floor")
+                     table.r_addr.eq(index)]                                          # 3, 4: the read
+        read = 2 + table.latency             # the clock the table's word is out
+        table_word = Signal(PATTERN_WIDTH, name="table_word", reset_less=True)
+        m.d.sync += table_word.eq(table.r_data)                                       # 5
+        inside_r = delayed(m, inside, table.latency + 1, "inside")
+        scan_r, floor_r = delayed(m, self.scan, read + 1, "scan"), delayed(m, self.floor, read + 1, "floor")
         word = Signal(PATTERN_WIDTH + 1)
-        m.d.sync += word.eq(Mux(scan_r, Mux(inside_r, table.r_data, floor_r), PATTERN_ONE))  # 6
+        m.d.sync += word.eq(Mux(scan_r, Mux(inside_r, table_word, floor_r), PATTERN_ONE))  # 6
         m.submodules.mul = mul = RegisteredMultiplier(GAIN_WIDTH + 1, PATTERN_WIDTH + 1, input_reg=True)
-        gain_w = delayed(m, self.gain, read + 1, "gain", data=True)
+        gain_w = delayed(m, self.gain, read + 2, "gain", data=True)
         m.d.comb += [mul.en.eq(1), mul.a.eq(gain_w), mul.b.eq(word)]                 # 7, 8
         rounded = Signal(GAIN_WIDTH)
         m.d.sync += rounded.eq((mul.o + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)    # 9
         m.d.comb += self.o.eq(rounded)
-        assert read + 1 + mul.latency + 1 == self.latency
+        assert read + 2 + mul.latency + 1 == self.latency
         return m
