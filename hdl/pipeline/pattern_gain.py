@@ -25,10 +25,11 @@ PATTERN_LAYOUT = data.StructLayout({"shift": 3, "floor": PATTERN_WIDTH, "w_en": 
 #: beam, for M clocks: the generator takes the step in the period's first
 #: clock, into a register, then a copy per pipeline.
 BEAM_CLOCK = 2
-#: Clocks from a visit to the pattern gain's gain and azimuth inputs: the
-#: beam, BEAM_CLOCK clocks into the period, reaches the first visit's
-#: pattern gain at every M (the visit is 1 or 2 clocks into it).
-GAIN_INPUT_DELAY = 2
+#: Clocks from a visit to the pattern gain's gain and azimuth inputs (a
+#: register each): the beam, BEAM_CLOCK clocks into the period, reaches the
+#: first visit's pattern gain at every M (the visit is 1 or 2 clocks into
+#: it, ``visit_cycles``).
+GAIN_INPUT_DELAY = 1
 
 
 class PatternGain(wiring.Component):
@@ -46,14 +47,17 @@ class PatternGain(wiring.Component):
     its span (``shift`` 0..6); the table's read (one block RAM and its own
     output register, its write port from the register file); the word in a
     fabric register; the word or the floor; the product (one MULT18X18D
-    with input and output registers); the rounding. (The block RAM's read
+    with input and output registers); the product in a fabric register; the
+    rounding. (The block RAM's read
     without its output register, and the floor's choice, in one clock were
     the scan build's latest path at seed 2: 10.6 ns, 94.7 MHz; the offset's
     add of the half-span and the span's check in one clock at seed 1 of
     ``0f00145``, 6.7 ns, 148.4 MHz; the block RAM's output register into the
     floor's choice at seeds 4 and 5 of ``c424cbb``, 6.2 ns of one route,
-    132.6 MHz. ``latency`` + GAIN_INPUT_DELAY is the product stage's
-    ``max_gain_lag`` at the four-multiplier product, 11 clocks.)
+    132.6 MHz; the multiplier's output register into the rounding's adder at
+    seeds 4 and 5 of ``d0c1f55``, 6.9 ns, 4.6 of it one route, 145.9 MHz.
+    ``latency`` + GAIN_INPUT_DELAY is the product stage's ``max_gain_lag``
+    at the four-multiplier product, 11 clocks.)
 
     Parameters
     ----------
@@ -72,7 +76,7 @@ class PatternGain(wiring.Component):
     o : Out(GAIN_WIDTH)
     """
 
-    latency = 9
+    latency = 10
 
     def __init__(self, *, site=None):
         if site is not None and not isinstance(site, str):
@@ -115,8 +119,9 @@ class PatternGain(wiring.Component):
         m.submodules.mul = mul = RegisteredMultiplier(GAIN_WIDTH + 1, PATTERN_WIDTH + 1, input_reg=True)
         gain_w = delayed(m, self.gain, read + 2, "gain", data=True)
         m.d.comb += [mul.en.eq(1), mul.a.eq(gain_w), mul.b.eq(word)]                 # 7, 8
+        product = delayed(m, mul.o, 1, "product", data=True)                          # 9
         rounded = Signal(GAIN_WIDTH)
-        m.d.sync += rounded.eq((mul.o + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)    # 9
+        m.d.sync += rounded.eq((product + (1 << (PATTERN_FRAC - 1))) >> PATTERN_FRAC)  # 10
         m.d.comb += self.o.eq(rounded)
-        assert read + 2 + mul.latency + 1 == self.latency
+        assert read + 2 + mul.latency + 2 == self.latency
         return m
