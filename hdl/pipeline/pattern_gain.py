@@ -48,11 +48,11 @@ class PatternGain(wiring.Component):
     output register, its write port from the register file); the word in a
     fabric register; the word or the floor; the product (one MULT18X18D
     with input and output registers); the product in a fabric register; the
-    rounding. (The block RAM's read
-    without its output register, and the floor's choice, in one clock were
-    the scan build's latest path at seed 2: 10.6 ns, 94.7 MHz; the offset's
-    add of the half-span and the span's check in one clock at seed 1 of
-    ``0f00145``, 6.7 ns, 148.4 MHz; the block RAM's output register into the
+    rounding. (The block RAM's read without its output register, and the
+    floor's choice, in one clock were the scan build's latest path at seed
+    2: 10.6 ns, 94.7 MHz; the offset's add of the half-span and the span's
+    check in one clock at seed 1 of ``0f00145``, 6.7 ns, 148.4 MHz; the
+    block RAM's output register into the
     floor's choice at seeds 4 and 5 of ``c424cbb``, 6.2 ns of one route,
     132.6 MHz; the multiplier's output register into the rounding's adder at
     seeds 4 and 5 of ``d0c1f55``, 6.9 ns, 4.6 of it one route, 145.9 MHz.
