@@ -231,3 +231,8 @@ def test_pattern_gain_is_the_contracts(beamwidth, sidelobe):
     got = np.array(outputs[dut.latency:], dtype=np.int64)
     assert np.array_equal(got, want[:len(got)])
     assert len(set(got.tolist())) > 1000
+
+
+def test_pattern_gain_names_a_bad_site():
+    with pytest.raises(ValueError, match="Pattern table site must be a bel name or None, not 3"):
+        PatternGain(site=3)
