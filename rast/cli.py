@@ -89,7 +89,7 @@ def _default_build_fit(farm_streams) -> str:
 
 def cmd_stream(args) -> int:
     from rast.errors import read_build
-    from rast.model.physics.beam_window import farm_beam_channels
+    from rast.model.physics.beam_window import farm_follow_plan
     from rast.model.files.ramfiles import make_farm_files
     from rast.model.contract.loadplan import manifest_to_register_writes
     from rast.model.physics.stream import farm_for_build
@@ -125,7 +125,7 @@ def cmd_stream(args) -> int:
         print(f"antenna scan {farm.scan.mode!r}: the streams are those of a staring antenna; the manifest "
               "carries each turbine's azimuth and the pattern, which a bitstream built with --scan applies "
               "(one without it refuses this manifest)")
-        print(farm_beam_channels(farm).describe())
+        print(farm_follow_plan(farm))
     print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()

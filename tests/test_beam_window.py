@@ -90,8 +90,9 @@ def test_rast_stream_prints_the_channels_at_the_worst_azimuth(tmp_path, capsys):
     (tmp_path / "scene.toml").write_text(text)
     assert main(["stream", str(tmp_path / "scene.toml"), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
-    # +-2.21 deg: 10, 11, 12 and 13.5 lie within 4.43 deg of one another
-    assert "at most 4 of the 6 turbines lie in that window at once" in out
+    # +-2.21 deg and a guard: 10, 11, 12 and 13.5 lie within 4.43 deg of one another
+    assert "at most 4 of the 6 turbines hold one at once" in out
+    assert "above -60 dB from -2.21 to +2.21 deg of offset" in out
 
 
 def test_assign_below_db_is_checked():

@@ -21,7 +21,7 @@ import numpy as np
 
 from rast.model.physics.antenna import AntennaScan
 
-__all__ = ["BeamWindow", "assignment_window", "BeamChannels", "channels_needed", "farm_beam_channels"]
+__all__ = ["BeamWindow", "assignment_window", "BeamChannels", "channels_needed", "farm_follow_plan"]
 
 #: Offsets at which a measured pattern is evaluated for its window (degrees).
 _PATTERN_STEP_DEG = 1e-3
@@ -68,16 +68,6 @@ class BeamChannels:
     turbines: int
     window: BeamWindow
 
-    def describe(self) -> str:
-        w = self.window
-        if w.whole_circle:
-            return (f"beam-following channels: none saved: the pattern's floor lies above "
-                    f"assign_below_db ({w.floor_db:g} dB), so every turbine is always in the window "
-                    f"({self.turbines} channels); set sidelobe_db at or below it")
-        return (f"beam-following channels: the two-way pattern is above {w.floor_db:g} dB from "
-                f"{w.low_deg:+.2f} to {w.high_deg:+.2f} deg of offset; at most {self.channels} of the "
-                f"{self.turbines} turbines lie in that window at once (beam at {self.beam_azimuth_deg:.2f} deg)")
-
 
 def channels_needed(azimuths_deg, window: BeamWindow) -> BeamChannels:
     """The most of the turbines at ``azimuths_deg`` inside ``window`` at one
@@ -101,8 +91,33 @@ def channels_needed(azimuths_deg, window: BeamWindow) -> BeamChannels:
     return BeamChannels(int(counts[k]), float(np.mod(beam, 360.0)), n, window)
 
 
-def farm_beam_channels(farm) -> BeamChannels:
-    """:func:`channels_needed` of a farm's channels (a range-extended
-    turbine's taps each one) under its scan's ``assign_below_db``."""
-    window = assignment_window(farm.scan, farm.scan.assign_below_db)
-    return channels_needed([w.azimuth_deg for w in farm.windmills], window)
+def farm_follow_plan(farm, channels: int | None = None, slots: int = 1) -> str:
+    """What a board whose channels follow the beam needs for ``farm``, by the
+    contract's rule (``rast.model.contract.follow``: the kept pattern entries,
+    the guard, the rows held at once); with ``channels`` (a build's) a scene
+    that needs more is refused (ValueError naming the beam and the count).
+    Without a build the guard allows for as many loads as the scene needs
+    channels, ``slots`` fabric clocks a sample."""
+    from rast.model.contract.follow import check_follow, follow_guard_codes, follow_occupancy, follow_pattern
+    from rast.model.contract.scan import AZIMUTH_CODES, azimuth_code, pattern_words
+
+    scan = farm.scan
+    n = len(farm.windmills)
+    try:
+        window = follow_pattern(scan, pattern_words(scan))
+    except ValueError as error:
+        if channels is not None:
+            raise
+        return f"beam-following channels: none saved: {error} ({n} channels)"
+    az = np.sort(azimuth_code([w.azimuth_deg for w in farm.windmills]))
+    loads = channels
+    if loads is None:       # the scene's own need, with the guard of one step
+        loads = follow_occupancy(az, window, follow_guard_codes(scan, farm.sample_rate_hz, 0, slots)).channels
+    guard = follow_guard_codes(scan, farm.sample_rate_hz, loads, slots)
+    need = (follow_occupancy(az, window, guard) if channels is None
+            else check_follow(az, window, guard, channels))
+    deg = 360.0 / AZIMUTH_CODES
+    return (f"beam-following channels: the two-way pattern is above {scan.assign_below_db:g} dB from "
+            f"{window.lo * deg:+.2f} to {window.hi * deg:+.2f} deg of offset, a turbine takes its channel "
+            f"{guard} codes ({guard * deg:.3f} deg) earlier; at most {need.channels} of the {n} turbines "
+            f"hold one at once (beam from {need.beam_deg:.2f} to {need.last_deg:.2f} deg)")
