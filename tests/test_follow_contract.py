@@ -92,7 +92,7 @@ def test_the_assignment_follows_the_closed_form_and_never_takes_a_channel_twice(
     scan = _scan(mode="free" if step == 1 else "acp")
     window = _window(scan)
     guard = follow_guard_codes(scan, 20e6, 64, 8)
-    assert guard == step + 1 + 1            # 64 loads of 8 samples: 0.35 codes at 12.5 rpm
+    assert guard == step + 1 + 1            # 64 loads of 16 samples: 0.7 codes at 12.5 rpm
     assert guard >= step + 1
     az = np.sort(np.concatenate([rng.integers(0, AZIMUTH_CODES, 400), np.full(5, 65530), np.full(5, 3)]))
     channels = follow_occupancy(az, window, guard).channels

@@ -47,13 +47,17 @@ import numpy as np
 from rast.model.contract.fixedpoint import GAIN_WIDTH, PHASE_FRAC_BITS
 from rast.model.contract.scan import AZIMUTH_CODES, PATTERN_ENTRIES, PatternWords
 
-__all__ = ["FOLLOW_LOAD_CLOCKS", "FOLLOW_ROW_FIELDS", "FOLLOW_ROW_WORDS", "FollowRow", "pack_rows", "unpack_rows", "FollowWindow",
+__all__ = ["FOLLOW_STEP_BITS", "FOLLOW_LOAD_CLOCKS", "FOLLOW_ROW_FIELDS", "FOLLOW_ROW_WORDS", "FollowRow", "pack_rows", "unpack_rows", "FollowWindow",
            "follow_pattern", "follow_guard_codes", "FollowOccupancy", "follow_occupancy", "check_follow",
            "follow_phase", "Follower", "FollowEvent"]
 
+#: Bits of the scene's step counter: the blade phase is exact for 2**48 steps
+#: from the start (162 days at 20 MS/s).
+FOLLOW_STEP_BITS = 48
 #: Fabric clocks the board takes, at most, from a row's entry to its channel
-#: loaded (the guard allows for C of them in a row).
-FOLLOW_LOAD_CLOCKS = 64
+#: loaded (the guard allows for C of them in a row): the phase's product,
+#: two clocks a bit of the step, and the load's writes.
+FOLLOW_LOAD_CLOCKS = 128
 
 #: A row's fields, (name, width) from bit 0 up; 128 bits in all.
 FOLLOW_ROW_FIELDS = (("azimuth", 16), ("gain", GAIN_WIDTH), ("delay", 16), ("base", 23), ("length", 24),
@@ -207,7 +211,9 @@ def check_follow(azimuth_codes, window: FollowWindow, guard: int, channels: int)
 
 def follow_phase(step, phase_inc, length):
     """A row's stream phase at ``step`` of the scene (units of 2**-32 words):
-    ``(step · phase_inc) mod (length · 2**32)``."""
+    ``(step · phase_inc) mod (length · 2**32)``, the step counted modulo
+    2**FOLLOW_STEP_BITS."""
+    step = int(step) % (1 << FOLLOW_STEP_BITS)
     return (int(step) * int(phase_inc)) % (int(length) << PHASE_FRAC_BITS)
 
 
