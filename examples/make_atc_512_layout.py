@@ -46,11 +46,12 @@ def _offset(lat, lon, east_m, north_m):
     return lat2, lon2
 
 
-def layout_rows(seed=512):
+def layout_rows(seed=512, farms=FARMS, radar=(RADAR_LAT, RADAR_LON), first_case=3200001, county="Synthetic County, TX"):
+    """The layout's CSV rows: each farm a jittered grid (``FARMS``' columns)."""
     rng = np.random.default_rng(seed)
-    rows, case = [], 3200001
+    rows, case = [], first_case
     for (name, bearing, range_km, n_rows, per_row, along, spacing, row_gap,
-         manu, model, cap, hub, rotor, year) in FARMS:
+         manu, model, cap, hub, rotor, year) in farms:
         b, a = np.radians(bearing), np.radians(along)
         across = a + np.pi / 2
         e0, n0 = range_km * 1e3 * np.sin(b), range_km * 1e3 * np.cos(b)
@@ -61,8 +62,8 @@ def layout_rows(seed=512):
                 jitter = rng.uniform(-JITTER_M, JITTER_M, size=2)
                 e = e0 + k * spacing * np.sin(a) + r * row_gap * np.sin(across) + jitter[0]
                 n = n0 + k * spacing * np.cos(a) + r * row_gap * np.cos(across) + jitter[1]
-                lat, lon = _offset(RADAR_LAT, RADAR_LON, e, n)
-                rows.append(f'{case},,,,,TX,"Synthetic County, TX",48999,{name},{year},{count},'
+                lat, lon = _offset(*radar, e, n)
+                rows.append(f'{case},,,,,TX,"{county}",48999,{name},{year},{count},'
                             f"{count * cap / 1000:.1f},{manu},{model},{cap},{hub},{rotor},{swept:.2f},"
                             f"{hub + rotor / 2:.1f},0,,3,3,,synthetic,{lon:.6f},{lat:.6f}")
                 case += 1

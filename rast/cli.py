@@ -125,7 +125,10 @@ def cmd_stream(args) -> int:
         print(f"antenna scan {farm.scan.mode!r}: the streams are those of a staring antenna; the manifest "
               "carries each turbine's azimuth and the pattern, which a bitstream built with --scan applies "
               "(one without it refuses this manifest)")
-        print(farm_follow_plan(farm))
+        from rast.gateware.build import default_clock_mhz
+        rate = farm.sample_rate_mhz          # fabric clocks a sample: the build's, or the default fabric's
+        slots = contract.slots if contract is not None else max(1, round(default_clock_mhz(rate) / rate))
+        print(farm_follow_plan(farm, slots=slots))
     print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()
@@ -210,6 +213,21 @@ def cmd_preview(args) -> int:
     return 0
 
 
+def _follow_panel(farm) -> dict:
+    """The PPI's second panel for a scene round the radar: the channels a
+    board following the beam holds at each beam azimuth (none where the
+    pattern's floor lies above ``assign_below_db``)."""
+    from rast.gateware.build import default_clock_mhz
+    from rast.model.physics.beam_window import follow_rows_held
+    rate = farm.sample_rate_mhz
+    held = follow_rows_held(farm, slots=max(1, round(default_clock_mhz(rate) / rate)))
+    if held is None:
+        return {}
+    peak = int(held.argmax())
+    return {"held": held, "held_caption": f"channels held by a board following the beam (docs/beam_following.md): "
+            f"at most {int(held.max())}, beam at {peak * 360 / held.size:.1f}°"}
+
+
 def _preview_ppi(args, farm) -> int:
     """``rast preview --ppi``: one revolution (or ``--seconds``) as the radar's PPI."""
     from rast.model.files.outputs import atomic_file
@@ -255,7 +273,8 @@ def _preview_ppi(args, farm) -> int:
         with atomic_file(out) as png:
             save_ppi(png, image, edges, turbines=[(w.azimuth_deg, w.range_km) for w in farm.windmills],
                      dynamic_range_db=args.dynamic_range,
-                     floor_db=None if noise_dbfs is None else noise_dbfs - 5, title=title)
+                     floor_db=None if noise_dbfs is None else noise_dbfs - 5, title=title,
+                     **_follow_panel(farm))
     except OSError as error:
         raise UserError(f"cannot write {out}: {error.strerror or error}") from None
     looked = image.pulses > 0

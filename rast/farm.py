@@ -101,6 +101,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--share-aspect-deg", type=_angle, metavar="DEG",
                         help="alike turbines share streams (share_streams = true), rotor angles this "
                         "close too where the replay SFDR holds (docs/stream_sharing.md; default: no sharing)")
+    parser.add_argument("--scan-rpm", type=_real("a non-zero number of rpm", lambda v: v != 0 and math.isfinite(v)),
+                        metavar="RPM", help="the antenna turns (scan_mode = \"free\", scan_rpm; positive "
+                        "clockwise; docs/antenna_scan.md; default: staring)")
+    parser.add_argument("--beamwidth-deg", type=_number("a positive beamwidth in degrees"), metavar="DEG",
+                        help="3-dB one-way beamwidth, written as beamwidth_deg (default: not written, 1.4)")
+    parser.add_argument("--sidelobe-db", type=_real("a two-way floor in dB, at most 0", lambda v: v <= 0),
+                        metavar="DB", help="the two-way pattern's floor, written as sidelobe_db (default: "
+                        "not written, -50)")
     parser.add_argument("--out", required=True, help="farm config (TOML) to write")
 
 
@@ -112,7 +120,8 @@ def run(args) -> int:
     layout = read_layout(args.layout)
     settings = FarmSettings(args.sample_rate, args.radar_frequency, args.prf, args.pulse_width, args.cpi,
                             args.ram_depth, stream_oversampling=args.stream_oversampling,
-                            share_aspect_deg=args.share_aspect_deg)
+                            share_aspect_deg=args.share_aspect_deg, scan_rpm=args.scan_rpm,
+                            beamwidth_deg=args.beamwidth_deg, sidelobe_db=args.sidelobe_db)
     text, summary = make_farm(layout, RadarSite.from_option(args.radar, layout.geodetic), args.wind_from,
                               turbine_class=TURBINE_CLASSES[args.turbine_model], settings=settings,
                               wind_speed_m_s=args.wind_speed, max_range_km=args.max_range_km,

@@ -48,7 +48,7 @@ from rast.model.contract.fixedpoint import GAIN_WIDTH, PHASE_FRAC_BITS
 from rast.model.contract.scan import AZIMUTH_CODES, PATTERN_ENTRIES, PatternWords
 
 __all__ = ["FOLLOW_STEP_BITS", "FOLLOW_LOAD_CLOCKS", "FOLLOW_ROW_FIELDS", "FOLLOW_ROW_WORDS", "FollowRow", "pack_rows", "unpack_rows", "FollowWindow",
-           "follow_pattern", "follow_guard_codes", "FollowOccupancy", "follow_occupancy", "check_follow",
+           "follow_pattern", "follow_guard_codes", "FollowOccupancy", "rows_held", "follow_occupancy", "check_follow",
            "follow_phase", "Follower", "FollowEvent"]
 
 #: Bits of the scene's step counter: the blade phase is exact for 2**48 steps
@@ -176,26 +176,33 @@ class FollowOccupancy:
         return self.last_code * 360.0 / AZIMUTH_CODES
 
 
-def follow_occupancy(azimuth_codes, window: FollowWindow, guard: int) -> FollowOccupancy:
-    """The most of the rows at ``azimuth_codes`` held at one beam code (row k
-    is held at b when ``(b − az_k − lo + guard) mod 2**16 < W``). A row
-    count changes only where the beam meets an entry code, so the most is
-    at one: the rows whose entry codes lie in ``(E − W, E]``."""
-    az = np.sort(np.asarray(azimuth_codes, dtype=np.int64) % AZIMUTH_CODES)
-    n = az.size
+def rows_held(azimuth_codes, window: FollowWindow, guard: int) -> np.ndarray:
+    """The rows held at every beam code (2**16 counts): row k from its entry
+    code ``az_k + lo − guard`` for W codes (a difference array round the circle)."""
+    az = np.asarray(azimuth_codes, dtype=np.int64) % AZIMUTH_CODES
     width = window.hi + 1 - window.lo + guard
-    if n == 0:
-        return FollowOccupancy(0, 0, 0)
     if width >= AZIMUTH_CODES:
-        return FollowOccupancy(n, 0, n)
-    doubled = np.concatenate([az - AZIMUTH_CODES, az])
-    # rows held at b = az_k + lo - guard (row k's entry): az_j in (az_k - W, az_k]
-    counts = np.searchsorted(doubled, az, side="right") - np.searchsorted(doubled, az - width, side="right")
-    k = int(np.argmax(counts))
-    # from row k's entry to the exit of the first of them (at its code minus one)
-    first = int(doubled[n + k - counts[k] + 1])
-    return FollowOccupancy(int(counts[k]), int((az[k] + window.lo - guard) % AZIMUTH_CODES), n,
-                           int((first + window.hi) % AZIMUTH_CODES))
+        return np.full(AZIMUTH_CODES, az.size, dtype=np.int64)
+    first = (az + window.lo - guard) % AZIMUTH_CODES
+    diff = np.zeros(2 * AZIMUTH_CODES + 1, dtype=np.int64)
+    np.add.at(diff, first, 1)
+    np.add.at(diff, first + width, -1)
+    held = np.cumsum(diff)
+    return held[:AZIMUTH_CODES] + held[AZIMUTH_CODES:2 * AZIMUTH_CODES]
+
+
+def follow_occupancy(azimuth_codes, window: FollowWindow, guard: int) -> FollowOccupancy:
+    """The most of the rows at ``azimuth_codes`` held at one beam code, the
+    first such code and the last of its run."""
+    held = rows_held(azimuth_codes, window, guard)
+    most = int(held.max())
+    n = int(np.asarray(azimuth_codes).size)
+    starts = np.flatnonzero((held == most) & (np.roll(held, 1) < most))
+    if starts.size == 0:                                  # as many at every code
+        return FollowOccupancy(most, 0, n, AZIMUTH_CODES - 1)
+    first = int(starts[0])
+    run = int(np.argmax(np.roll(held, -first) < most))
+    return FollowOccupancy(most, first, n, (first + run - 1) % AZIMUTH_CODES)
 
 
 def check_follow(azimuth_codes, window: FollowWindow, guard: int, channels: int) -> FollowOccupancy:

@@ -21,7 +21,7 @@ import numpy as np
 
 from rast.model.physics.antenna import AntennaScan
 
-__all__ = ["BeamWindow", "assignment_window", "BeamChannels", "channels_needed", "farm_follow_plan"]
+__all__ = ["BeamWindow", "assignment_window", "BeamChannels", "channels_needed", "follow_rows_held", "farm_follow_plan"]
 
 #: Offsets at which a measured pattern is evaluated for its window (degrees).
 _PATTERN_STEP_DEG = 1e-3
@@ -91,6 +91,34 @@ def channels_needed(azimuths_deg, window: BeamWindow) -> BeamChannels:
     return BeamChannels(int(counts[k]), float(np.mod(beam, 360.0)), n, window)
 
 
+def _follow_setup(farm, slots: int, channels: int | None):
+    """The scene's window, sorted azimuth codes and guard (``channels`` loads;
+    None: as many as the scene needs, found with the guard of one step)."""
+    from rast.model.contract.follow import follow_guard_codes, follow_occupancy, follow_pattern
+    from rast.model.contract.scan import azimuth_code, pattern_words
+
+    scan = farm.scan
+    window = follow_pattern(scan, pattern_words(scan))
+    az = np.sort(azimuth_code([w.azimuth_deg for w in farm.windmills]))
+    loads = channels
+    if loads is None:
+        loads = follow_occupancy(az, window, follow_guard_codes(scan, farm.sample_rate_hz, 0, slots)).channels
+    return window, az, follow_guard_codes(scan, farm.sample_rate_hz, loads, slots)
+
+
+def follow_rows_held(farm, slots: int = 1):
+    """The turbines holding a channel of a board following the beam at each
+    of the 2**16 beam codes; None where following saves nothing."""
+    from rast.model.contract.follow import rows_held
+    if not farm.scan.turning:
+        return None
+    try:
+        window, az, guard = _follow_setup(farm, slots, None)
+    except ValueError:
+        return None
+    return rows_held(az, window, guard)
+
+
 def farm_follow_plan(farm, channels: int | None = None, slots: int = 1) -> str:
     """What a board whose channels follow the beam needs for ``farm``, by the
     contract's rule (``rast.model.contract.follow``: the kept pattern entries,
@@ -98,22 +126,17 @@ def farm_follow_plan(farm, channels: int | None = None, slots: int = 1) -> str:
     that needs more is refused (ValueError naming the beam and the count).
     Without a build the guard allows for as many loads as the scene needs
     channels, ``slots`` fabric clocks a sample."""
-    from rast.model.contract.follow import check_follow, follow_guard_codes, follow_occupancy, follow_pattern
-    from rast.model.contract.scan import AZIMUTH_CODES, azimuth_code, pattern_words
+    from rast.model.contract.follow import check_follow, follow_occupancy
+    from rast.model.contract.scan import AZIMUTH_CODES
 
     scan = farm.scan
     n = len(farm.windmills)
     try:
-        window = follow_pattern(scan, pattern_words(scan))
+        window, az, guard = _follow_setup(farm, slots, channels)
     except ValueError as error:
         if channels is not None:
             raise
         return f"beam-following channels: none saved: {error} ({n} channels)"
-    az = np.sort(azimuth_code([w.azimuth_deg for w in farm.windmills]))
-    loads = channels
-    if loads is None:       # the scene's own need, with the guard of one step
-        loads = follow_occupancy(az, window, follow_guard_codes(scan, farm.sample_rate_hz, 0, slots)).channels
-    guard = follow_guard_codes(scan, farm.sample_rate_hz, loads, slots)
     need = (follow_occupancy(az, window, guard) if channels is None
             else check_follow(az, window, guard, channels))
     deg = 360.0 / AZIMUTH_CODES

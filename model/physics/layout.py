@@ -144,6 +144,9 @@ class FarmSettings:
     stream_oversampling: float | None = None   # × max Doppler; None: not written (the parser's 4)
     share_aspect_deg: float | None = None   # deg; None: no sharing written; else share_streams = true
     #                                          and this tolerance (docs/stream_sharing.md)
+    scan_rpm: float | None = None          # rpm; None: staring; else scan_mode = "free" at this rate
+    beamwidth_deg: float | None = None     # deg, 3-dB one way; None: not written (the parser's 1.4)
+    sidelobe_db: float | None = None       # dB, the two-way floor; None: not written (the parser's -50)
 
 
 @dataclass(frozen=True)
@@ -525,6 +528,13 @@ def farm_toml(placed: list[PlacedTurbine], settings: FarmSettings, *, header: li
         *(["share_streams = true      # alike turbines play one stream (docs/stream_sharing.md)",
            f"share_aspect_deg = {settings.share_aspect_deg:g}    # deg: rotor angles this close may share, "
            "each where its replay SFDR holds"] if settings.share_aspect_deg is not None else []),
+        *(['scan_mode = "free"        # the RTS turns the beam (docs/antenna_scan.md)',
+           f"scan_rpm = {settings.scan_rpm:g}           # rpm, clockwise seen from above"]
+          if settings.scan_rpm is not None else []),
+        *([f"beamwidth_deg = {settings.beamwidth_deg:g}      # deg, 3-dB one way"]
+          if settings.beamwidth_deg is not None else []),
+        *([f"sidelobe_db = {settings.sidelobe_db:g}        # dB, the two-way floor"]
+          if settings.sidelobe_db is not None else []),
     ]
     for p in placed:
         lines += _windmill_table(p, tower_rcs_m2)

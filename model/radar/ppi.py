@@ -84,13 +84,31 @@ def _draw(ax, image: DwellImage, db, gate_edges_km, low, top, turbines):
     return mesh
 
 
+def _draw_held(ax, held, caption):
+    """Channels held against the beam's azimuth, on polar axes (each 16
+    codes' most, so no peak is lost at the line's resolution)."""
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    most = held.reshape(-1, 16).max(axis=1)
+    theta = np.deg2rad(np.arange(most.size + 1) * 360.0 / most.size)
+    ax.plot(theta, np.append(most, most[0]), color="#c33", linewidth=1)
+    peak = int(np.argmax(most))
+    ax.plot([theta[peak]], [most[peak]], marker="o", color="#c33", markersize=4)
+    ax.set_rlim(0, most.max() * 1.1 + 1)
+    ax.set_rlabel_position(112.5)
+    ax.grid(alpha=0.3)
+    ax.set_title(caption, fontsize=9)
+
+
 def save_ppi(path, image: DwellImage, gate_edges_km: np.ndarray, *, turbines=(), dynamic_range_db: float = 60.0,
-             floor_db: float | None = None, title: str = "") -> None:
+             floor_db: float | None = None, title: str = "", held=None, held_caption: str = "") -> None:
     """Draw ``image`` on polar axes (north up, clockwise): colour the dwell's
     mean power in dB FS over ``dynamic_range_db`` below the strongest cell,
     not below ``floor_db`` when given (the noise); ``turbines``: (azimuth_deg, range_km) pairs marked
     with a small cross. When the turbines lie within 90° of azimuth, a second
-    panel zooms on their sector (three beamwidths either side) and ranges."""
+    panel zooms on their sector (three beamwidths either side) and ranges;
+    otherwise ``held`` (the channels a board following the beam holds at
+    each of the 2**16 beam codes), when given, is the second panel."""
     db = image.power_db()
     top = np.nanmax(db) if np.isfinite(db).any() else 0.0
     low = top - dynamic_range_db if floor_db is None else max(floor_db, top - dynamic_range_db)
@@ -103,8 +121,9 @@ def save_ppi(path, image: DwellImage, gate_edges_km: np.ndarray, *, turbines=(),
         if np.ptp(off) < 90:
             pad = 3 * image.cell_deg
             sector = (centre + off.min() - pad, centre + off.max() + pad)
-    fig = plt.figure(figsize=(15 if sector else 8.5, 7.5), layout="constrained")
-    ax = fig.add_subplot(1, 2 if sector else 1, 1, projection="polar")
+    second = sector is not None or held is not None
+    fig = plt.figure(figsize=(15 if second else 8.5, 7.5), layout="constrained")
+    ax = fig.add_subplot(1, 2 if second else 1, 1, projection="polar")
     mesh = _draw(ax, image, db, gate_edges_km, low, top, turbines)
     ax.set_rlim(0, gate_edges_km[-1])
     ax.set_rlabel_position(112.5)
@@ -118,6 +137,8 @@ def save_ppi(path, image: DwellImage, gate_edges_km: np.ndarray, *, turbines=(),
         # the range axis starts near the pole: the sector fills the panel
         zoom.set_rorigin(gate_edges_km[0] - 0.5 * (gate_edges_km[-1] - gate_edges_km[0]))
         zoom.set_title(f"the turbines' sector (range axis from {gate_edges_km[0]:.1f} km), {sector[0] % 360:.1f}°-{sector[1] % 360:.1f}°", fontsize=9)
+    elif held is not None:
+        _draw_held(fig.add_subplot(1, 2, 2, projection="polar"), np.asarray(held), held_caption)
     fig.suptitle(title, fontsize=10)
     fig.colorbar(mesh, ax=fig.axes, shrink=0.75, label="mean power over the dwell (dB FS)")
     fig.savefig(path, dpi=110, format="png")
