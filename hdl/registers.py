@@ -28,8 +28,11 @@ SLOT_RAM_FIELDS = {"gain": ("GAIN", "gain"), "length": ("LENGTH", "length"),
 
 
 def slot_ram_fields(rmap: RegisterMap) -> dict:
-    """SLOT_RAM_FIELDS, and AZIMUTH's where the block has the antenna scan."""
-    return {**SLOT_RAM_FIELDS, **({"azimuth": ("AZIMUTH", "azimuth")} if rmap.contract.scan else {})}
+    """SLOT_RAM_FIELDS, AZIMUTH's where the block has the antenna scan and
+    START's where its streams start at a fraction of a word."""
+    c = rmap.contract
+    return {**SLOT_RAM_FIELDS, **({"azimuth": ("AZIMUTH", "azimuth")} if c.scan else {}),
+            **({"start": ("START", "frac")} if c.start_frac else {})}
 
 
 def ram_fields(rmap: RegisterMap) -> dict:

@@ -66,7 +66,7 @@ class WindFarmReplay(wiring.Component):
     ----------
     channels : int
         N, 1 to ReplayContract.MAX_CHANNELS.
-    slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz, pool :
+    slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz, pool, scan, start_frac :
         See :class:`rast.model.contract.fixedpoint.ReplayContract`. With ``pool="sdram"``
         the streams are fetched through :class:`~rast.hdl.sdram_pool.SDRAMStreamPool`
         whose native port is ``native`` in the clock domain ``sdram`` (the
@@ -116,11 +116,12 @@ class WindFarmReplay(wiring.Component):
     def __init__(self, channels=4, *, slots=1, pool_words=ReplayContract.pool_words,
                  max_delay=ReplayContract.max_delay, max_tap=ReplayContract.max_tap,
                  interpolation="fir", cmult_form="4mult", sample_rate_hz=0, pool="bram", scan=False,
-                 init=None, init_common_delay=0, acp_filter_clocks=16, sdram_preloaded=False):
+                 start_frac=False, init=None, init_common_delay=0, acp_filter_clocks=16, sdram_preloaded=False):
         self._contract = ReplayContract(channels=channels, slots=slots, pool_words=pool_words,
                                         max_delay=max_delay, max_tap=max_tap,
                                         interpolation=interpolation, cmult_form=cmult_form,
-                                        sample_rate_hz=sample_rate_hz, pool=pool, scan=scan)
+                                        sample_rate_hz=sample_rate_hz, pool=pool, scan=scan,
+                                        start_frac=start_frac)
         self._acp_inputs = (AcpInput(acp_filter_clocks), AcpInput(acp_filter_clocks)) if scan else None
         init = list(init or [])
         if len(init) > channels:

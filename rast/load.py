@@ -83,6 +83,7 @@ def _read_contract(bridge: HostBridge) -> ReplayContract:
                        interpolation=INTERPOLATIONS[min(cfg >> 8 & 3, len(INTERPOLATIONS) - 1)],
                        cmult_form="3mult" if cfg >> 10 & 1 else "4mult",
                        pool="sdram" if cfg >> 11 & 1 else "bram", scan=bool(cfg >> 12 & 1),
+                       start_frac=bool(cfg >> 23 & 1),
                        sample_rate_hz=bridge.read(a("SAMPLE_RATE")))
     lat = bridge.read(a("LATENCY"))
     if lat != c.latency:

@@ -47,12 +47,15 @@ def test_readme_configuration_example_runs_and_fits_the_default_build(tmp_path, 
 
 
 #: Examples made for a build other than the default, and that build's sample rate (MHz).
-OTHER_BUILDS = {"farm_atc_512.toml": BuildConfig(channels=512, sample_rate_mhz=2.5, pool="sdram").sample_rate_mhz}
+OTHER_BUILDS = {"farm_atc_512.toml": BuildConfig(channels=512, sample_rate_mhz=2.5, pool="sdram").sample_rate_mhz,
+                # the beam-following scene, at the air-traffic builds' rate (docs/beam_following.md)
+                "farm_follow.toml": 2.5}
 
 
 def test_default_bitstream_runs_at_the_examples_sample_rate():
     """Every example at the default build's rate, but those made for another
-    build (the 512-channel, 2.5 MS/s SDRAM build's example), at that build's."""
+    build (the 512-channel, 2.5 MS/s SDRAM build's example, the beam-following
+    scene at the same rate), at that build's."""
     rates = {p.name: load_config(p).sample_rate_mhz for p in (ROOT / "examples").glob("*.toml")}
     assert {r for name, r in rates.items() if name not in OTHER_BUILDS} == {BuildConfig().sample_rate_mhz}
     assert {name: rates[name] for name in OTHER_BUILDS} == OTHER_BUILDS

@@ -229,6 +229,9 @@ class SlotState(wiring.Component):
             "tp1": SL.members["tp"], "tp_last": 1,
             "seq1": SL.members["seq"], "jobs_up": SL.members["jobs"], "jobs_dn": SL.members["jobs"],
         })
+        if c.start_frac:
+            # the new stream's start: START, START + increment, the increment's high bits
+            mid_fields.update({"n_frac": PHASE_FRAC_BITS, "n_acc": PHASE_FRAC_BITS + 1, "n_hnz": 1})
         return data.StructLayout(mid_fields)
 
     def _mid_register(self, init_at):
@@ -328,6 +331,9 @@ class SlotState(wiring.Component):
                 a[k] = fn(rg.length)
         a["n_inc"] = rg.increment
         a["n_base"] = rg.base
+        if c.start_frac:
+            a["n_frac"] = rg.start
+            a["n_acc"] = rg.start + rg.increment
         present_v = self.present
         m.d.comb += present_v.eq(present.bit_select(vslot, 1) if M > 1 else present[0])
         want = st.room & ~st.restart & present_v
@@ -369,7 +375,12 @@ class SlotState(wiring.Component):
             # set; the OR as a LUT after the 27-bit chain was 5.0 ns at 16
             # channels)
             a["jne_step"] = (Cat(st.acc[:F - PB], st.inc_hnz) + Cat(st.inc[:F - PB], Const(1, 1)))[F - PB + 1]
-            a["n_jne"] = rg.increment[F - PB:] != 0
+            if c.start_frac:
+                # the first step's J step flag from START + increment against START
+                a["n_jne"] = (rg.start + rg.increment)[F - PB:] != rg.start[F - PB:]
+                a["n_hnz"] = rg.increment[F - PB:] != 0
+            else:
+                a["n_jne"] = rg.increment[F - PB:] != 0
             a["rpos0"] = st.cpos + T - 1
             a["rpos1"] = st.rpos - 1
             a["tap1"] = st.tap + 1
@@ -403,14 +414,15 @@ class SlotState(wiring.Component):
         nxt = Signal(SL, name="st_next")
         m.d.comb += nxt.eq(x.as_value()[:SL.size])
         with m.If(x.switch):
+            start, start_acc = (x.n_frac, x.n_acc) if c.start_frac else (0, x.n_inc)
             m.d.comb += [nxt.len_m1.eq(x.n_len_m1), nxt.inc.eq(x.n_inc), nxt.base.eq(x.n_base),
-                         nxt.left.eq(x.n_len_m1), nxt.frac.eq(0), nxt.acc.eq(x.n_inc), nxt.last.eq(x.n_last),
+                         nxt.left.eq(x.n_len_m1), nxt.frac.eq(start), nxt.acc.eq(start_acc), nxt.last.eq(x.n_last),
                          nxt.pending.eq(0), nxt.bank.eq(~x.bank), nxt.restart.eq(1),
                          nxt.muting.eq(1), nxt.f_start.eq(x.n_fstart)]
             # (the refill count below)
             if fir:
                 # (the job's fields below, from the switch's copy)
-                m.d.comb += [nxt.jne.eq(x.n_jne), nxt.inc_hnz.eq(x.n_jne)]
+                m.d.comb += [nxt.jne.eq(x.n_jne), nxt.inc_hnz.eq(x.n_hnz if c.start_frac else x.n_jne)]
         with m.Else():
             m.d.comb += [nxt.pending.eq(x.pend), nxt.restart.eq(0)]
             with m.If(x.en):
@@ -483,7 +495,10 @@ class SlotState(wiring.Component):
             # from the step's adder to the FIR's registers (the switch -> the
             # phase ``tp`` through it, 5.12 ns at seed 2 of a 16-channel build).
             with m.If(m_switch):
-                m.d.comb += [nxt.issuing.eq(0), nxt.jobs.eq(3), nxt.seq.eq(0), nxt.tp.eq(0), nxt.adv.eq(0)]
+                # (the first job's phase: START's FIR phase, 0 without it)
+                first_tp = x.n_frac[F - FIR_PHASE_BITS:] if c.start_frac else 0
+                m.d.comb += [nxt.issuing.eq(0), nxt.jobs.eq(3), nxt.seq.eq(0), nxt.tp.eq(first_tp),
+                             nxt.adv.eq(0)]
             with m.Else():
                 with m.If(x.start):
                     m.d.comb += [nxt.issuing.eq(1), nxt.tp.eq(x.tp1),

@@ -153,7 +153,8 @@ class ReplayModel:
         self.bank = [0] * N
         self.pending = [0] * N
         self.phase = [0] * N
-        self.refill = [c.refill_samples] * N      # muted steps left, phase held at 0
+        self.start_next = [0] * N                  # START (a block built with start_frac)
+        self.refill = [c.refill_samples] * N      # muted steps left, phase held
         self._tables = [None] * N                  # FIR table of the active stream, made on demand
         self._streams = [self.stream_of(l) for l in range(N)]   # the active streams' words
         self.stream_addr = 0
@@ -200,7 +201,7 @@ class ReplayModel:
         self.base_act[l] = self.base_next[l]
         self.len_act[l] = self.len_next[l]
         self.inc_act[l] = self.inc_next[l]
-        self.phase[l] = 0
+        self.phase[l] = self.start_next[l]        # START's fraction of word 0 (0 without start_frac)
         self.pending[l] = 0
         self.refill[l] = self.c.refill_samples
         self._tables[l] = None
@@ -314,6 +315,8 @@ class ReplayModel:
             self.inc_next[l] = fv("inc")
         elif r.name == "GAIN":
             self.gain[l] = fv("gain")
+        elif r.name == "START":
+            self.start_next[l] = fv("frac")
         elif r.name == "DELAY":
             self.delay_next[l] = fv("delay")
         elif r.name == "COMMON_DELAY":
@@ -360,7 +363,7 @@ class ReplayModel:
         if self.c.scan and (v := self._read_scan(r)) is not None:
             return v
         stored = {"LENGTH": lambda: self.len_next[l], "PHASE_INC": lambda: self.inc_next[l],
-                  "GAIN": lambda: self.gain[l],
+                  "GAIN": lambda: self.gain[l], "START": lambda: self.start_next[l],
                   "DELAY": lambda: self.delay_next[l] | self.delay_act[l] << APPLIED_LSB,
                   "COMMON_DELAY": lambda: self.common_next | self.common_act << APPLIED_LSB,
                   "PLAYED": lambda: self.crc_played[l],
@@ -400,7 +403,7 @@ class ReplayModel:
             k = 0
             while k < T:
                 if self.refill[l]:
-                    n = min(self.refill[l], T - k)     # muted, phase held at 0
+                    n = min(self.refill[l], T - k)     # muted, phase held
                     k += n
                     self.refill[l] -= n
                     continue

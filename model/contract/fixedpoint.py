@@ -708,6 +708,12 @@ class ReplayContract:
         gain times the two-way pattern at the beam's offset
         (``rast.model.contract.scan``; docs/antenna_scan.md). Off: the
         block and its register map are what they were without it.
+    start_frac : bool
+        Each channel has a START register: a switched-in stream starts at
+        that fraction of its first word instead of at the word (with a
+        stream rolled by whole words in the pool, at any phase): what a
+        channel that follows the beam needs (docs/beam_following.md). Needs
+        the scan's register map. Off: the block is what it was without it.
     """
     channels: int = 4
     slots: int = 1
@@ -719,10 +725,11 @@ class ReplayContract:
     sample_rate_hz: int = 0
     pool: str = "bram"
     scan: bool = False
+    start_frac: bool = False
 
     #: Keys of :meth:`to_dict` that are constructor parameters.
     PARAMETERS = ("channels", "slots", "pool_words", "max_delay", "max_tap", "interpolation",
-                  "cmult_form", "sample_rate_hz", "pool", "scan")
+                  "cmult_form", "sample_rate_hz", "pool", "scan", "start_frac")
     #: Most channels a block may have: 8 pipelines of 64 slots, an air-traffic
     #: radar's rate on the 160 MHz fabric (CONFIG holds up to 2047).
     MAX_CHANNELS = 512
@@ -741,8 +748,11 @@ class ReplayContract:
                 raise ValueError(f"{what} must be at most {hi}, not {v!r}")
         posint("channels", "Channel count", self.channels, 1, self.MAX_CHANNELS)
         posint("slots", "Slots per pipeline", self.slots, 1, self.MAX_SLOTS)
-        if not isinstance(self.scan, bool):
-            raise TypeError(f"scan must be True or False, not {self.scan!r}")
+        for name in ("scan", "start_frac"):
+            if not isinstance(getattr(self, name), bool):
+                raise TypeError(f"{name} must be True or False, not {getattr(self, name)!r}")
+        if self.start_frac and not self.scan:
+            raise ValueError("start_frac needs scan: START lies in the scan build's channel blocks")
         if self.pool not in POOL_BACKENDS:
             raise ValueError(f"Pool must be one of {', '.join(POOL_BACKENDS)}, not {self.pool!r}")
         w = self.pool_words

@@ -158,6 +158,18 @@ Loading the pattern (`rast load` does this for a config that turns):
 PATTERN_DATA, then read PATTERN_CRC: if it is not the CRC-32 of the words
 sent, the table is written again (the scan stays off); if it is,
 `SCAN_PERIOD`, `SCAN_START` and `SCAN_CTRL` with the mode and `restart`.
+
+## Streams that start inside a word
+
+A scan build with `start_frac` (channels that follow the beam,
+`docs/beam_following.md`) has a tenth register per channel, START:
+
+{markdown(_start_map(c))}
+At a switch the new stream's phase is START (2^-32 words into word 0)
+instead of 0; with BASE moved by whole words (a stream rolled in the pool)
+a channel starts at any phase of its stream. The switch's refill is the
+same: the channel is muted for its refill samples, the phase held, then
+plays from START.
 """
 
 
@@ -169,6 +181,14 @@ def _scan_map(c: ReplayContract):
     full = register_map(sc)
     return RegisterMap(sc, [r for r in full.registers
                             if 0x10 <= r.addr < full.channel_base or (r.name == "AZIMUTH" and r.channel == 0)])
+
+
+def _start_map(c: ReplayContract):
+    """Channel 0's START, alone."""
+    import dataclasses
+    from rast.model.contract.regmap import RegisterMap
+    sc = dataclasses.replace(c, scan=True, start_frac=True)
+    return RegisterMap(sc, [r for r in register_map(sc).registers if r.name == "START" and r.channel == 0])
 
 
 def _pool_check_map(c: ReplayContract):

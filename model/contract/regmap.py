@@ -151,7 +151,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
     inits += [ChannelInit()] * (c.channels - len(inits))
     interp_code = INTERPOLATIONS.index(c.interpolation)
     config = ((c.channels & 0xFF) | (interp_code << 8) | (int(c.cmult_form == "3mult") << 10)
-              | (int(c.pool == "sdram") << 11) | (int(c.scan) << 12) | (c.channels >> 8 << 13) | (c.slots << 16))
+              | (int(c.pool == "sdram") << 11) | (int(c.scan) << 12) | (c.channels >> 8 << 13) | (c.slots << 16)
+              | (int(c.start_frac) << 23))
     regs = [
         Register("ID", 0x00, (Field("id", 0, 32, "ro", ID_VALUE, "constant 0x52415354 ('RAST')"),),
                  "identification"),
@@ -172,7 +173,11 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                            "channel count N, bits 10:8 (N = channels + 256 * channels_hi)")]
                                     if c.channels > 255 else []),
                                   Field("slots", 16, 7, "ro", c.slots,
-                                        "M: fabric clocks per sample, channels per pipeline")),
+                                        "M: fabric clocks per sample, channels per pipeline"),
+                                  # (only where the channels have START: the other builds' map as before)
+                                  *([Field("start_frac", 23, 1, "ro", 1,
+                                           "1: each channel has START (streams start inside a word)")]
+                                    if c.start_frac else [])),
                  f"elaboration parameters (reads {config:#x} here)"),
         Register("LATENCY", 0x02, (Field("latency", 0, 16, "ro", c.latency,
                                          "fixed latency L in samples"),),
@@ -308,6 +313,12 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                       "the turbine's azimuth, 2**16 a revolution clockwise from north; written before "
                       "input k, from output k"),),
                 "the antenna's two-way pattern at (beam - AZIMUTH) scales GAIN", ch))
+        if c.start_frac:
+            regs.append(Register("START", base + 9, (
+                Field("frac", 0, PHASE_FRAC_BITS, "rw", 0,
+                      "the stream of the next switch starts this fraction of its word 0 on, "
+                      "2**-32 words (0: at the word)"),),
+                "latched into the stream at the switch (docs/beam_following.md)", ch))
     return RegisterMap(c, regs)
 
 
