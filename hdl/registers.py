@@ -7,7 +7,7 @@ from amaranth.lib import wiring, data
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from rast.model.contract.regmap import RegisterMap, CRC32_POLY, STORED, SCAN_RESTART
+from rast.model.contract.regmap import RegisterMap, CRC32_POLY, STORED, SCAN_RESTART, FOLLOW_SWITCH_STEP_BITS
 from rast.model.contract.fixedpoint import STREAM_WIDTH, REGISTER_STAGING
 from rast.model.contract.scan import AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_WIDTH
 from .ecp5_primitives import kept_register, local_constant, lut_ram_depth
@@ -270,6 +270,7 @@ class RegisterFile(wiring.Component):
                 "pattern_w_data": Out(PATTERN_WIDTH),
                 "scan_beam": In(AZIMUTH_BITS), "scan_lost": In(1), "scan_learned": In(1),
                 "scan_per_rev": In(17)} if c.scan else {}),
+            **({"step_lo": In(FOLLOW_SWITCH_STEP_BITS), "land_tick": In(1)} if c.start_frac else {}),
         })
 
     @property
@@ -291,8 +292,8 @@ class RegisterFile(wiring.Component):
         env = SimpleNamespace(m=m, platform=platform, rmap=self._rmap, bus=self.bus, c=self._rmap.contract,
                             N=self._rmap.contract.channels)
         for stage in (self._staging, self._landing, self._storage_writes, self._stream_run, self._slot_rams,
-                      self._swap_check, self._commands, self._common_delay, self._pool_write, self._status,
-                      self._scan, self._read_back):
+                      self._swap_check, self._follow_switch, self._commands, self._common_delay, self._pool_write,
+                      self._status, self._scan, self._read_back):
             stage(env)
         return m
 
@@ -719,6 +720,32 @@ class RegisterFile(wiring.Component):
         match_of = {ch: group_match[g] for g, members in enumerate(self._groups) for ch in members}
         env.__dict__.update(rejected=rejected, match_of=match_of)
 
+    def _follow_switch(self, env):
+        """FOLLOW_SWITCH (a block with START): the channel it names switches by
+        force, as a disabling CTRL write with a SWAP taken would make it, in the
+        landing clock whose step number (``step_lo``, its low bits) is the one
+        named: the write's own landing, or a later ``land_tick``. One is held
+        at a time; a write replaces it."""
+        env.follow_fire = env.follow_ch = None
+        if not env.c.start_frac:
+            return
+        m, rmap = env.m, env.rmap
+        r = rmap.reg("FOLLOW_SWITCH")
+        landed, data = env.strobe[r.addr], env.land_data[None]
+        ch_f, step_f = r.field("channel"), r.field("step")
+        channel, step = data[ch_f.lsb:ch_f.lsb + ch_f.width], data[step_f.lsb:step_f.lsb + step_f.width]
+        held = Signal(name="follow_held")
+        held_ch, held_step = Signal(ch_f.width, name="follow_held_ch"), Signal(step_f.width, name="follow_held_step")
+        now = landed & (step == self.step_lo)
+        later = held & self.land_tick & (held_step == self.step_lo) & ~landed
+        fire, fire_ch = Signal(name="follow_fire"), Signal(ch_f.width, name="follow_fire_ch")
+        m.d.comb += [fire.eq(now | later), fire_ch.eq(Mux(landed, channel, held_ch))]
+        with m.If(landed):
+            m.d.sync += [held.eq(~now), held_ch.eq(channel), held_step.eq(step)]
+        with m.Elif(later):
+            m.d.sync += held.eq(0)
+        env.follow_fire, env.follow_ch = fire, fire_ch
+
     def _commands(self, env):
         """Per channel: what the engine reads of it from flip-flops, the applied
         tap, and the command a CTRL write leaves for its next visit."""
@@ -744,6 +771,9 @@ class RegisterFile(wiring.Component):
                              rg.swap_req.eq(swap & match_of[l])]
                 with m.If(swap):
                     m.d.sync += rejected[l].eq(~match_of[l])
+            if env.follow_fire is not None:
+                with m.Elif(env.follow_fire & (env.follow_ch == l)):
+                    m.d.sync += [rg.force_swap.eq(1), rg.force_pending.eq(0), rg.swap_req.eq(0)]
             with m.Elif(self.cmd_ack[l]):
                 m.d.sync += [rg.force_swap.eq(0), rg.force_pending.eq(0), rg.swap_req.eq(0)]
             m.d.comb += [rg.enable.eq(storage[("CTRL", l, "enable")]), rg.tap.eq(tap)]

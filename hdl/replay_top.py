@@ -27,7 +27,7 @@ from rast.model.contract.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_
                                             SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS, REGISTER_STAGING,
                                             WRITE_STAGING, take_interval, tree_cycles,
                                             tree_operand_registers, visit_cycles, reset_slot)
-from rast.model.contract.regmap import register_map
+from rast.model.contract.regmap import register_map, FOLLOW_SWITCH_STEP_BITS
 from rast.model.contract.powerup import ChannelInit, pool_contents
 
 __all__ = ["WindFarmReplay", "SDRAM_ADDRESS_WIDTH", "SATURATION_CYCLES"]
@@ -346,6 +346,14 @@ class WindFarmReplay(wiring.Component):
             m.d.comb += regs.take.eq(take & ~busy)
         else:
             m.d.comb += regs.take.eq(take)
+        if c.start_frac:
+            # the steps since reset, counted at the landing clock (``start``:
+            # the clock before the pipelines' period start, where a write lands
+            # and the period's step is ``stepped``), for FOLLOW_SWITCH
+            steps = Signal(FOLLOW_SWITCH_STEP_BITS, name="steps_lo")
+            with m.If(env.start & env.stepped):
+                m.d.sync += steps.eq(steps + 1)
+            m.d.comb += [regs.step_lo.eq(steps), regs.land_tick.eq(env.start)]
         env.__dict__.update(V=V, regs=regs, sdram=sdram, w_held=w_held, w_held_addr=w_held_addr,
                             w_held_data=w_held_data, w_lost=w_lost)
 

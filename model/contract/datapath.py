@@ -154,6 +154,7 @@ class ReplayModel:
         self.pending = [0] * N
         self.phase = [0] * N
         self.start_next = [0] * N                  # START (a block built with start_frac)
+        self.scheduled = None                      # FOLLOW_SWITCH not yet taken: (channel, step)
         self.refill = [c.refill_samples] * N      # muted steps left, phase held
         self._tables = [None] * N                  # FIR table of the active stream, made on demand
         self._streams = [self.stream_of(l) for l in range(N)]   # the active streams' words
@@ -317,6 +318,16 @@ class ReplayModel:
             self.gain[l] = fv("gain")
         elif r.name == "START":
             self.start_next[l] = fv("frac")
+        elif r.name == "FOLLOW_SWITCH":
+            # the first step from this one whose number has the low bits named
+            ch, bits = fv("channel"), 1 << r.field("step").width
+            step = self.steps + (fv("step") - self.steps) % bits
+            self.scheduled = None
+            if ch < self.c.channels:
+                if step == self.steps:
+                    self._swap(ch)
+                else:
+                    self.scheduled = (ch, step)
         elif r.name == "DELAY":
             self.delay_next[l] = fv("delay")
         elif r.name == "COMMON_DELAY":
@@ -431,6 +442,14 @@ class ReplayModel:
         """Push input samples (signed ints); return the output samples (yi, yq)."""
         xi = np.asarray(xi, dtype=np.int64)
         xq = np.asarray(xq, dtype=np.int64)
+        if self.scheduled is not None and 0 < self.scheduled[1] - self.steps < len(xi):
+            k = self.scheduled[1] - self.steps           # a FOLLOW_SWITCH's step inside: run to it
+            yi, yq = self.run(xi[:k], xq[:k])
+            zi, zq = self.run(xi[k:], xq[k:])
+            return np.concatenate([yi, zi]), np.concatenate([yq, zq])
+        if self.scheduled is not None and self.scheduled[1] == self.steps:
+            self._swap(self.scheduled[0])
+            self.scheduled = None
         T = len(xi)
         self._x.append(np.stack([xi, xq]))
         self._d.append(np.repeat(np.array(self.delay_act + [self.common_act], dtype=np.int64)[:, None],

@@ -162,14 +162,21 @@ sent, the table is written again (the scan stays off); if it is,
 ## Streams that start inside a word
 
 A scan build with `start_frac` (channels that follow the beam,
-`docs/beam_following.md`) has a tenth register per channel, START:
+`docs/beam_following.md`) has a tenth register per channel, START, and
+FOLLOW_SWITCH:
 
 {markdown(_start_map(c))}
 At a switch the new stream's phase is START (2^-32 words into word 0)
 instead of 0; with BASE moved by whole words (a stream rolled in the pool)
 a channel starts at any phase of its stream. The switch's refill is the
 same: the channel is muted for its refill samples, the phase held, then
-plays from START.
+plays from START. FOLLOW_SWITCH switches a channel by force (as a disabling
+CTRL write with a SWAP taken, but unchecked and whether the channel is
+enabled or not) at the step it names by the low 8 bits of its number (steps
+accepted since reset): at the write's own step when they match, else up to
+255 steps later. So a host, or the board's own loader, that knows the phase
+a turbine will have at a step can start its stream there exactly, whatever
+the gaps in the input.
 """
 
 
@@ -184,11 +191,12 @@ def _scan_map(c: ReplayContract):
 
 
 def _start_map(c: ReplayContract):
-    """Channel 0's START, alone."""
+    """FOLLOW_SWITCH and channel 0's START, alone."""
     import dataclasses
     from rast.model.contract.regmap import RegisterMap
     sc = dataclasses.replace(c, scan=True, start_frac=True)
-    return RegisterMap(sc, [r for r in register_map(sc).registers if r.name == "START" and r.channel == 0])
+    return RegisterMap(sc, [r for r in register_map(sc).registers
+                            if (r.name == "START" and r.channel == 0) or r.name == "FOLLOW_SWITCH"])
 
 
 def _pool_check_map(c: ReplayContract):

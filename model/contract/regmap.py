@@ -30,7 +30,7 @@ from rast.model.contract.scan import (AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_
                                       ACP_MIN_LEARN, AZIMUTH_CODES)
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
-           "CHANNEL_STRIDE", "SCAN_CHANNEL_BASE", "SCAN_CHANNEL_STRIDE", "SCAN_RESTART", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
+           "CHANNEL_STRIDE", "SCAN_CHANNEL_BASE", "SCAN_CHANNEL_STRIDE", "SCAN_RESTART", "FOLLOW_SWITCH_STEP_BITS", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
            "CRC32_POLY", "stream_crc32", "APPLIED_LSB"]
 
 ID_VALUE = 0x52415354          # "RAST"
@@ -43,6 +43,8 @@ SCAN_CHANNEL_STRIDE = 16
 #: SCAN_CTRL's command bit: restart the beam (free: at SCAN_START; acp: the
 #: count, the code and what was learned cleared).
 SCAN_RESTART = 1 << 31
+#: Low bits of the step number FOLLOW_SWITCH names (a switch up to 255 steps ahead).
+FOLLOW_SWITCH_STEP_BITS = 8
 CTRL_ENABLE = 1 << 0
 CTRL_SWAP = 1 << 1
 CTRL_BANK = 1 << 2
@@ -249,6 +251,13 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
         ]
     if c.scan:
         regs += _scan_registers()
+    if c.start_frac:
+        regs.append(Register("FOLLOW_SWITCH", 0x19, (
+            Field("channel", 0, 11, "wo", 0, "the channel to switch to its BASE/LENGTH/PHASE_INC/START"),
+            Field("step", 16, FOLLOW_SWITCH_STEP_BITS, "wo", 0,
+                  "at the first step from this write's on whose number (steps since reset) has these low bits")),
+            "a switch by force at a named step, unchecked (channels that follow the beam, "
+            "docs/beam_following.md); a second write replaces one not yet taken"))
     channel_base, stride = (SCAN_CHANNEL_BASE, SCAN_CHANNEL_STRIDE) if c.scan else (CHANNEL_BASE, CHANNEL_STRIDE)
     for ch in range(c.channels):
         base = channel_base + stride * ch
