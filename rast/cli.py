@@ -125,10 +125,7 @@ def cmd_stream(args) -> int:
         print(f"antenna scan {farm.scan.mode!r}: the streams are those of a staring antenna; the manifest "
               "carries each turbine's azimuth and the pattern, which a bitstream built with --scan applies "
               "(one without it refuses this manifest)")
-        from rast.gateware.build import default_clock_mhz
-        rate = farm.sample_rate_mhz          # fabric clocks a sample: the build's, or the default fabric's
-        slots = contract.slots if contract is not None else max(1, round(default_clock_mhz(rate) / rate))
-        print(farm_follow_plan(farm, slots=slots))
+        print(farm_follow_plan(farm, contract=contract))     # (timed on the build's, or the default's)
     print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()
@@ -217,10 +214,8 @@ def _follow_panel(farm) -> dict:
     """The PPI's second panel for a scene round the radar: the channels a
     board following the beam holds at each beam azimuth (none where the
     pattern's floor lies above ``assign_below_db``)."""
-    from rast.gateware.build import default_clock_mhz
     from rast.model.physics.beam_window import follow_rows_held
-    rate = farm.sample_rate_mhz
-    held = follow_rows_held(farm, slots=max(1, round(default_clock_mhz(rate) / rate)))
+    held = follow_rows_held(farm)
     if held is None:
         return {}
     peak = int(held.argmax())

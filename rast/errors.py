@@ -57,8 +57,9 @@ def read_build(path):
     build = report.get("build") if isinstance(report, dict) else None
     _need(isinstance(build, dict), str(path), "has no 'build' section: give the report.json "
           "that `rast build` wrote for the bitstream")
-    # (a report from before the antenna scan, or START, existed has neither: off)
-    missing = [k for k in ReplayContract.PARAMETERS if k not in build and k not in ("scan", "start_frac")]
+    # (a report from before the antenna scan, START or following existed has none: off)
+    missing = [k for k in ReplayContract.PARAMETERS if k not in build
+               and k not in ("scan", "start_frac", "follow_rows")]
     _need(not missing, str(path), f"its 'build' section lacks {', '.join(missing)}: give the report.json "
           "that `rast build` wrote for the bitstream")
     try:

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 from rast.model.contract.datapath import phase_sequence
-from rast.model.contract.follow import (FollowRow, Follower, check_follow, follow_guard_codes, follow_occupancy,
+from rast.model.contract.fixedpoint import ReplayContract
+from rast.model.contract.follow import (FollowRow, Follower, check_follow, follow_guard_codes, follow_lead_steps,
+                                        follow_occupancy,
                                         follow_pattern, follow_phase, pack_rows, unpack_rows)
 from rast.model.contract.scan import AZIMUTH_CODES, pattern_lookup, pattern_words
 from rast.model.physics.antenna import AntennaScan
@@ -91,8 +93,11 @@ def test_the_assignment_follows_the_closed_form_and_never_takes_a_channel_twice(
     rng = np.random.default_rng(step)
     scan = _scan(mode="free" if step == 1 else "acp")
     window = _window(scan)
-    guard = follow_guard_codes(scan, 20e6, 64, 8)
-    assert guard == step + 1 + 1            # 64 loads of 16 samples: 0.7 codes at 12.5 rpm
+    contract = ReplayContract(channels=64, slots=8, sample_rate_hz=20_000_000)
+    guard = follow_guard_codes(scan, contract, 64)
+    # 64 loads of 19 steps and a refill of 157 at 20 MS/s, 12.5 rpm: 0.94 codes
+    loads = 64 * follow_lead_steps(8) + contract.refill_samples
+    assert guard == step + math.ceil(loads * 12.5 / 60 * AZIMUTH_CODES / 20e6) + 1 == step + 2
     assert guard >= step + 1
     az = np.sort(np.concatenate([rng.integers(0, AZIMUTH_CODES, 400), np.full(5, 65530), np.full(5, 3)]))
     channels = follow_occupancy(az, window, guard).channels
@@ -170,3 +175,17 @@ def test_at_one_code_a_row_leaves_before_the_next_enters(step):
         beam += step
         events += follower.move(beam)
     assert [(e.kind, e.row, e.channel) for e in events] == [("leave", 0, 0), ("enter", 1, 0)]
+
+
+def test_the_loads_lead_fits_the_named_steps_bits_at_every_m():
+    """A load names its switch's step by 8 bits: its lead (the phase's
+    product or the first writes, the last writes, the staging) must stay
+    under 256 steps at every M, and cover the clocks it counts."""
+    from rast.model.contract.fixedpoint import REGISTER_STAGING, take_interval
+    from rast.model.contract.follow import LOAD_WRITES_AFTER, LOAD_WRITES_BEFORE, PHASE_CLOCKS
+    from rast.model.contract.regmap import FOLLOW_SWITCH_STEP_BITS
+    for m in range(1, 65):
+        lead = follow_lead_steps(m)
+        ti = take_interval(m)
+        assert lead * m >= max(PHASE_CLOCKS, LOAD_WRITES_BEFORE * ti) + LOAD_WRITES_AFTER * ti + REGISTER_STAGING
+        assert lead < 1 << FOLLOW_SWITCH_STEP_BITS - 1

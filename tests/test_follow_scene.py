@@ -50,15 +50,17 @@ def test_the_channels_the_scene_needs_are_counted_code_by_code():
     in the guarded window at one beam code, counted here for every code."""
     from rast.model.contract.follow import follow_guard_codes, follow_pattern
     from rast.model.contract.scan import AZIMUTH_CODES, azimuth_code, pattern_words
-    from rast.model.physics.beam_window import farm_follow_plan
+    from rast.model.physics.beam_window import farm_follow_plan, follow_contract
     from rast.model.physics.farm import load_config
 
     farm = load_config(SCENE)
-    text = farm_follow_plan(farm, slots=64)
+    contract = follow_contract(farm)
+    assert contract.slots == 64 and contract.sample_rate_hz == 2_500_000
+    text = farm_follow_plan(farm)
     need = int(re.search(r"at most (\d+) of the (\d+) turbines", text).group(1))
     guard = int(re.search(r"takes its channel (\d+) codes", text).group(1))
     window = follow_pattern(farm.scan, pattern_words(farm.scan))
-    assert guard == follow_guard_codes(farm.scan, farm.sample_rate_hz, need, 64)
+    assert guard == follow_guard_codes(farm.scan, contract, need)
     az = azimuth_code([w.azimuth_deg for w in farm.windmills])
     held = np.zeros(AZIMUTH_CODES + 1, dtype=np.int64)          # a difference array round the circle
     width = window.hi + 1 - window.lo + guard
@@ -74,8 +76,8 @@ def test_the_channels_the_scene_needs_are_counted_code_by_code():
             held[last - AZIMUTH_CODES] -= 1
     assert need == np.cumsum(held)[:AZIMUTH_CODES].max()
     with pytest.raises(ValueError, match=f"{need} turbines are within the beam's window at once"):
-        farm_follow_plan(farm, channels=need - 1, slots=64)
-    assert f"at most {need} of the" in farm_follow_plan(farm, channels=need, slots=64)
+        farm_follow_plan(farm, channels=need - 1)
+    assert f"at most {need} of the" in farm_follow_plan(farm, channels=need)
 
 
 @pytest.mark.parametrize("option, value, needle", [("--scan-rpm", "0", "non-zero number of rpm"),

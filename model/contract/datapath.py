@@ -176,9 +176,13 @@ class ReplayModel:
             self.azimuth = [self.rmap.reg("AZIMUTH", l).field("azimuth").reset for l in range(N)]
             self.scan_regs = {name: self.rmap.reg(name).fields[0].reset
                               for name in ("SCAN_PERIOD", "SCAN_START", "PATTERN_ADDR")}
+            if c.follow_rows:
+                self.scan_regs.update({name: 0 for name in ("FOLLOW_WINDOW", "FOLLOW_SPAN", "TABLE_ADDR")})
+                self.scan_regs["FOLLOW_CTRL"] = c.follow_rows << self.rmap.reg("FOLLOW_CTRL").field("capacity").lsb
             ctrl = self.rmap.reg("SCAN_CTRL")
             self.scan_ctrl = self._stored(ctrl, sum(f.reset << f.lsb for f in ctrl.fields))
             self.pattern_reg = 0
+            self.table_crc = 0
             self.beam = BeamGenerator()
             self._configure_beam()
             self.table = np.zeros(PATTERN_ENTRIES, dtype=np.int64)
@@ -243,6 +247,17 @@ class ReplayModel:
         elif r.name == "PATTERN_ADDR":
             self.scan_regs[r.name] = self._stored(r, value)
             self.pattern_crc = 0
+        elif r.name in ("FOLLOW_CTRL", "FOLLOW_WINDOW", "FOLLOW_SPAN"):
+            # what the host reads back; the board's hand-out of channels is the
+            # gateware's, checked against the model with one channel per turbine
+            # (docs/beam_following.md), not modelled here
+            ro = sum(f.reset << f.lsb for f in r.fields if f.access == "ro")     # (FOLLOW_CTRL.capacity)
+            self.scan_regs[r.name] = self._stored(r, value) | ro
+        elif r.name == "TABLE_ADDR":
+            self.scan_regs[r.name] = self._stored(r, value)
+            self.table_crc = 0
+        elif r.name == "TABLE_DATA":
+            self.table_crc = stream_crc32((value,), self.table_crc)
         elif r.name == "PATTERN_DATA":
             word = value & ((1 << PATTERN_WIDTH) - 1)
             self.table[self.scan_regs["PATTERN_ADDR"]] = word
@@ -261,6 +276,8 @@ class ReplayModel:
             return self.pattern_reg
         if r.name == "PATTERN_CRC":
             return self.pattern_crc
+        if r.name == "TABLE_CRC":
+            return self.table_crc
         if r.name == "SCAN_STATUS":
             return self.beam.code | int(self.beam.track.learned) << r.field("learned").lsb
         if r.name == "ACP_PER_REV":

@@ -714,6 +714,9 @@ class ReplayContract:
         stream rolled by whole words in the pool, at any phase): what a
         channel that follows the beam needs (docs/beam_following.md). Needs
         the scan's register map. Off: the block is what it was without it.
+    follow_rows : int
+        Channels that follow the beam (docs/beam_following.md): the turbine
+        table's rows (0: none). Needs ``start_frac``.
     """
     channels: int = 4
     slots: int = 1
@@ -726,10 +729,13 @@ class ReplayContract:
     pool: str = "bram"
     scan: bool = False
     start_frac: bool = False
+    follow_rows: int = 0
 
     #: Keys of :meth:`to_dict` that are constructor parameters.
     PARAMETERS = ("channels", "slots", "pool_words", "max_delay", "max_tap", "interpolation",
-                  "cmult_form", "sample_rate_hz", "pool", "scan", "start_frac")
+                  "cmult_form", "sample_rate_hz", "pool", "scan", "start_frac", "follow_rows")
+    #: Most rows of a turbine table.
+    MAX_FOLLOW_ROWS = 4096
     #: Most channels a block may have: 8 pipelines of 64 slots, an air-traffic
     #: radar's rate on the 160 MHz fabric (CONFIG holds up to 2047).
     MAX_CHANNELS = 512
@@ -753,6 +759,10 @@ class ReplayContract:
                 raise TypeError(f"{name} must be True or False, not {getattr(self, name)!r}")
         if self.start_frac and not self.scan:
             raise ValueError("start_frac needs scan: START lies in the scan build's channel blocks")
+        posint("follow_rows", "Follow rows", self.follow_rows, 0, self.MAX_FOLLOW_ROWS)
+        if self.follow_rows and not self.start_frac:
+            raise ValueError("follow_rows needs start_frac: a following channel starts its turbine's stream "
+                             "at a phase")
         if self.pool not in POOL_BACKENDS:
             raise ValueError(f"Pool must be one of {', '.join(POOL_BACKENDS)}, not {self.pool!r}")
         w = self.pool_words

@@ -15,10 +15,11 @@ azimuth codes (``rast.model.contract.scan``: 2**16 a revolution).
   signed; the first kept entry's first code to the last one's last).
 * The guard. A row is *held* (has a channel) while its offset lies in
   ``lo − guard .. hi``: it takes its channel ``guard`` codes before it can
-  add anything, so the load that sets the channel up lands while its gain is
-  still 0. ``guard`` is the beam's largest step (one code free running; a
-  revolution over the ACP count following the radar) plus the codes the
-  beam turns while C loads are made, plus one (:func:`follow_guard_codes`).
+  add anything, so the load that sets the channel up, and the switch's
+  refill, end while its gain is still 0. ``guard`` is the beam's largest
+  step (one code free running; a revolution over the ACP count following
+  the radar) plus the codes the beam turns while C loads are made and the
+  last refills, plus one (:func:`follow_guard_codes`).
 * Entering and leaving. Row k has the entry code ``E_k = az_k + lo − guard``
   and the exit code ``X_k = az_k + hi + 1`` (mod 2**16): it is held for the
   beams ``b`` with ``(b − E_k) mod 2**16 < W``, ``W = hi + 1 − lo + guard``.
@@ -44,20 +45,31 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rast.model.contract.fixedpoint import GAIN_WIDTH, PHASE_FRAC_BITS
+from rast.model.contract.fixedpoint import GAIN_WIDTH, PHASE_FRAC_BITS, REGISTER_STAGING, take_interval
 from rast.model.contract.scan import AZIMUTH_CODES, PATTERN_ENTRIES, PatternWords
 
-__all__ = ["FOLLOW_STEP_BITS", "FOLLOW_LOAD_CLOCKS", "FOLLOW_ROW_FIELDS", "FOLLOW_ROW_WORDS", "FollowRow", "pack_rows", "unpack_rows", "FollowWindow",
+__all__ = ["FOLLOW_STEP_BITS", "PHASE_CLOCKS", "follow_lead_steps", "FOLLOW_ROW_FIELDS", "FOLLOW_ROW_WORDS", "FollowRow", "pack_rows", "unpack_rows", "FollowWindow",
            "follow_pattern", "follow_guard_codes", "FollowOccupancy", "rows_held", "follow_occupancy", "check_follow",
            "follow_phase", "Follower", "FollowEvent"]
 
 #: Bits of the scene's step counter: the blade phase is exact for 2**48 steps
 #: from the start (162 days at 20 MS/s).
 FOLLOW_STEP_BITS = 48
-#: Fabric clocks the board takes, at most, from a row's entry to its channel
-#: loaded (the guard allows for C of them in a row): the phase's product,
-#: two clocks a bit of the step, and the load's writes.
-FOLLOW_LOAD_CLOCKS = 128
+#: Fabric clocks the blade phase's product takes: two a bit of the step.
+PHASE_CLOCKS = 2 * FOLLOW_STEP_BITS
+#: Register writes of a load before its phase is known (AZIMUTH, GAIN, DELAY,
+#: APPLY, LENGTH, PHASE_INC) and after (BASE, START, FOLLOW_SWITCH).
+LOAD_WRITES_BEFORE, LOAD_WRITES_AFTER = 6, 3
+
+
+def follow_lead_steps(slots: int) -> int:
+    """Steps from the loader's taking an entry to the step its switch names:
+    the phase's product or the first writes (taken one a ``take_interval``),
+    then the last three writes and their staging, with a period of margin
+    either side. Below 2**FOLLOW_SWITCH_STEP_BITS at every M."""
+    ti = take_interval(slots)
+    clocks = max(PHASE_CLOCKS, LOAD_WRITES_BEFORE * ti) + LOAD_WRITES_AFTER * ti + REGISTER_STAGING + 2 * slots
+    return -(-clocks // slots)
 
 #: A row's fields, (name, width) from bit 0 up; 128 bits in all.
 FOLLOW_ROW_FIELDS = (("azimuth", 16), ("gain", GAIN_WIDTH), ("delay", 16), ("base", 23), ("length", 24),
@@ -142,20 +154,24 @@ def follow_pattern(scan, table: PatternWords) -> FollowWindow:
                         PatternWords(words, 0, shift))
 
 
-def follow_guard_codes(scan, sample_rate_hz: float, channels: int, slots: int) -> int:
+def follow_guard_codes(scan, contract, loads: int) -> int:
     """The guard (codes): the beam's largest step, plus the codes it turns
-    while ``channels`` loads of FOLLOW_LOAD_CLOCKS fabric clocks are made
-    (``slots`` clocks an RTS sample), plus one. Following the radar with ``acp_per_rev = "auto"`` the step of
-    4096 ACPs is assumed (a radar with fewer sets its count: a load that
-    lands late is flagged, never silent)."""
+    while ``loads`` loads are made one after another (each
+    :func:`follow_lead_steps`, the loader waiting for its switch) and the
+    last one's refill (``contract.refill_samples``, muted), plus one.
+    Following the radar with ``acp_per_rev = "auto"`` the step of 4096 ACPs
+    is assumed (a radar with fewer sets its count: a load that lands late is
+    flagged, never silent)."""
     if scan.mode == "free":
         step = 1
     else:
         acp = 4096 if scan.acp_per_rev == "auto" else int(scan.acp_per_rev)
         step = -(-AZIMUTH_CODES // acp)
-    codes_per_sample = abs(scan.rpm) / 60.0 * AZIMUTH_CODES / sample_rate_hz
-    load_samples = FOLLOW_LOAD_CLOCKS / slots
-    return step + math.ceil(channels * load_samples * codes_per_sample) + 1
+    if contract.sample_rate_hz <= 0:
+        raise ValueError("the guard needs the build's sample rate (sample_rate_hz)")
+    codes_per_sample = abs(scan.rpm) / 60.0 * AZIMUTH_CODES / contract.sample_rate_hz
+    steps = loads * follow_lead_steps(contract.slots) + contract.refill_samples
+    return step + math.ceil(steps * codes_per_sample) + 1
 
 
 @dataclass(frozen=True)

@@ -193,7 +193,14 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                                   *((Field("arp_lost", 2, 1, "ro", 0,
                                            "the scan follows the radar and an ARP was missed (an ACP "
                                            "past the revolution's count): the beam keeps turning at "
-                                           "the count in use; cleared by the next ARP"),) if c.scan else ())),
+                                           "the count in use; cleared by the next ARP"),) if c.scan else ()),
+                                  *((Field("late", 3, 1, "rc", 0,
+                                           "a following channel's load landed after its turbine's guard, or "
+                                           "named a step already past, since the last read"),
+                                     Field("overrun", 4, 1, "rc", 0,
+                                           "a turbine entering found every channel held (more turbines in "
+                                           "the window than channels) since the last read"))
+                                    if c.follow_rows else ())),
                  "sticky status, cleared by reading"),
         Register("APPLY", 0x04, (Field("delays", 0, 1, "wo", 0,
                                        "write 1: COMMON_DELAY and all channels' DELAY take effect in the same sample"),),
@@ -258,6 +265,8 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                   "at the first step from this write's on whose number (steps since reset) has these low bits")),
             "a switch by force at a named step, unchecked (channels that follow the beam, "
             "docs/beam_following.md); a second write replaces one not yet taken"))
+    if c.follow_rows:
+        regs += _follow_registers(c)
     channel_base, stride = (SCAN_CHANNEL_BASE, SCAN_CHANNEL_STRIDE) if c.scan else (CHANNEL_BASE, CHANNEL_STRIDE)
     for ch in range(c.channels):
         base = channel_base + stride * ch
@@ -329,6 +338,44 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
                       "2**-32 words (0: at the word)"),),
                 "latched into the stream at the switch (docs/beam_following.md)", ch))
     return RegisterMap(c, regs)
+
+
+def _follow_registers(c) -> list:
+    """The registers of channels that follow the beam (docs/beam_following.md;
+    the rule: ``rast.model.contract.follow``)."""
+    rows_bits = c.follow_rows.bit_length()
+    word_bits = (4 * c.follow_rows - 1).bit_length()
+    return [
+        Register("FOLLOW_CTRL", 0x1A, (
+            Field("on", 0, 1, "rw", 0, "the channels follow the beam (load the table and the window first)"),
+            Field("rows", 4, rows_bits, "rw", 0, f"rows in the turbine table (0..{c.follow_rows}), sorted by "
+                  "azimuth", clamp=(0, c.follow_rows)),
+            Field("capacity", 17, 13, "ro", c.follow_rows, "the table's most rows"),
+            Field("start", 31, 1, "wo", 0, "write 1: the scene's step counter restarts at 0 with the step "
+                  "this write lands before, and the channels are handed out afresh from the beam")),
+            "channels that follow the beam: written before input k, from output k"),
+        Register("FOLLOW_WINDOW", 0x1B, (
+            Field("entry_off", 0, AZIMUTH_BITS, "rw", 0, "lo - guard (mod 2**16): a row enters at its "
+                  "azimuth plus this"),
+            Field("exit_off", 16, AZIMUTH_BITS, "rw", 0, "hi + 1 (mod 2**16): a row leaves at its azimuth "
+                  "plus this")),
+            "the window's codes (rast.model.contract.follow)"),
+        Register("FOLLOW_SPAN", 0x1C, (
+            Field("width", 0, AZIMUTH_BITS, "rw", 0, "W = hi + 1 - lo + guard: the codes a row holds a channel"),
+            Field("guard", 16, AZIMUTH_BITS, "rw", 0, "codes a row takes its channel before the window")),
+            "the window's codes (rast.model.contract.follow)"),
+        Register("TABLE_ADDR", 0x1D, (
+            Field("addr", 0, word_bits, "rw", 0, "turbine table word (4 a row); +1 after each TABLE_DATA"),),
+            "the turbine table's write path: address"),
+        Register("TABLE_DATA", 0x1E, (
+            Field("word", 0, 32, "wo", 0, "a word of a row (rast.model.contract.follow.FOLLOW_ROW_FIELDS), "
+                  "written at TABLE_ADDR"),),
+            "the turbine table's write path: data"),
+        Register("TABLE_CRC", 0x1F, (
+            Field("crc", 0, 32, "ro", 0, "CRC-32 (zlib) of the TABLE_DATA words written since the last "
+                  "TABLE_ADDR write"),),
+            "the turbine table's write path: what the host checks before following"),
+    ]
 
 
 def _scan_registers() -> list:

@@ -91,9 +91,10 @@ def channels_needed(azimuths_deg, window: BeamWindow) -> BeamChannels:
     return BeamChannels(int(counts[k]), float(np.mod(beam, 360.0)), n, window)
 
 
-def _follow_setup(farm, slots: int, channels: int | None):
-    """The scene's window, sorted azimuth codes and guard (``channels`` loads;
-    None: as many as the scene needs, found with the guard of one step)."""
+def _follow_setup(farm, contract, channels: int | None):
+    """The scene's window, sorted azimuth codes and guard on a board built
+    as ``contract`` (``channels`` loads; None: as many as the scene needs,
+    found with the guard of one load)."""
     from rast.model.contract.follow import follow_guard_codes, follow_occupancy, follow_pattern
     from rast.model.contract.scan import azimuth_code, pattern_words
 
@@ -102,37 +103,47 @@ def _follow_setup(farm, slots: int, channels: int | None):
     az = np.sort(azimuth_code([w.azimuth_deg for w in farm.windmills]))
     loads = channels
     if loads is None:
-        loads = follow_occupancy(az, window, follow_guard_codes(scan, farm.sample_rate_hz, 0, slots)).channels
-    return window, az, follow_guard_codes(scan, farm.sample_rate_hz, loads, slots)
+        loads = follow_occupancy(az, window, follow_guard_codes(scan, contract, 1)).channels
+    return window, az, follow_guard_codes(scan, contract, loads)
 
 
-def follow_rows_held(farm, slots: int = 1):
-    """The turbines holding a channel of a board following the beam at each
-    of the 2**16 beam codes; None where following saves nothing."""
+def follow_contract(farm):
+    """The default build at ``farm``'s sample rate (the guard's timing when
+    no build is named)."""
+    import dataclasses
+    from rast.gateware.build import BuildConfig
+    contract = BuildConfig(sample_rate_mhz=farm.sample_rate_mhz).contract()
+    return dataclasses.replace(contract, sample_rate_hz=round(farm.sample_rate_hz))
+
+
+def follow_rows_held(farm, contract=None):
+    """The turbines holding a channel of a board following the beam (built
+    as ``contract``; None: :func:`follow_contract`) at each of the 2**16 beam
+    codes; None where following saves nothing."""
     from rast.model.contract.follow import rows_held
     if not farm.scan.turning:
         return None
     try:
-        window, az, guard = _follow_setup(farm, slots, None)
+        window, az, guard = _follow_setup(farm, contract or follow_contract(farm), None)
     except ValueError:
         return None
     return rows_held(az, window, guard)
 
 
-def farm_follow_plan(farm, channels: int | None = None, slots: int = 1) -> str:
+def farm_follow_plan(farm, channels: int | None = None, contract=None) -> str:
     """What a board whose channels follow the beam needs for ``farm``, by the
     contract's rule (``rast.model.contract.follow``: the kept pattern entries,
     the guard, the rows held at once); with ``channels`` (a build's) a scene
     that needs more is refused (ValueError naming the beam and the count).
-    Without a build the guard allows for as many loads as the scene needs
-    channels, ``slots`` fabric clocks a sample."""
+    The guard is timed on ``contract`` (None: :func:`follow_contract`), for
+    ``channels`` loads or, without, as many as the scene needs."""
     from rast.model.contract.follow import check_follow, follow_occupancy
     from rast.model.contract.scan import AZIMUTH_CODES
 
     scan = farm.scan
     n = len(farm.windmills)
     try:
-        window, az, guard = _follow_setup(farm, slots, channels)
+        window, az, guard = _follow_setup(farm, contract or follow_contract(farm), channels)
     except ValueError as error:
         if channels is not None:
             raise
