@@ -12,6 +12,8 @@ from rast.model.contract.fixedpoint import STREAM_WIDTH, REGISTER_STAGING
 from rast.model.contract.scan import AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_WIDTH
 from .ecp5_primitives import kept_register, local_constant, lut_ram_depth
 from .scan_generator import SCAN_SETTINGS
+from .follow.assigner import follow_settings_layout
+from rast.model.contract.follow import FOLLOW_ROW_WORDS
 
 #: Low address bits decoded apart from the rest for the write strobes (RegisterFile).
 PREDECODE_BITS = 4
@@ -271,6 +273,10 @@ class RegisterFile(wiring.Component):
                 "scan_beam": In(AZIMUTH_BITS), "scan_lost": In(1), "scan_learned": In(1),
                 "scan_per_rev": In(17)} if c.scan else {}),
             **({"step_lo": In(FOLLOW_SWITCH_STEP_BITS), "land_tick": In(1)} if c.start_frac else {}),
+            **({"follow": Out(follow_settings_layout(c.follow_rows)), "follow_on": Out(1), "follow_start": Out(1),
+                "table_w_en": Out(1), "table_w_addr": Out(range(FOLLOW_ROW_WORDS * c.follow_rows)),
+                "table_w_data": Out(32), "follow_late_set": In(1), "follow_overrun_set": In(1)}
+               if c.follow_rows else {}),
         })
 
     @property
@@ -293,7 +299,7 @@ class RegisterFile(wiring.Component):
                             N=self._rmap.contract.channels)
         for stage in (self._staging, self._landing, self._storage_writes, self._stream_run, self._slot_rams,
                       self._swap_check, self._follow_switch, self._commands, self._common_delay, self._pool_write,
-                      self._status, self._scan, self._read_back):
+                      self._status, self._scan, self._follow, self._read_back):
             stage(env)
         return m
 
@@ -850,6 +856,36 @@ class RegisterFile(wiring.Component):
         _crc_run(m, pattern_crc, strobe[rmap.reg("PATTERN_ADDR").addr], word_w, word, "pattern_crc")
         env.pattern_crc = pattern_crc
 
+    def _follow(self, env):
+        """Channels that follow the beam: the settings, the start, the turbine
+        table's write path and its CRC, the sticky late and overrun flags."""
+        env.table_crc = None
+        m, rmap, storage, strobe, land_data = env.m, env.rmap, env.storage, env.strobe, env.land_data
+        if not rmap.contract.follow_rows:
+            return
+        ctrl = rmap.reg("FOLLOW_CTRL")
+        start = env.landing(env.writes(ctrl.addr, None)
+                            & env.at(None, env.wd - 1).data[ctrl.field("start").lsb], 1, "follow_start")
+        m.d.comb += [self.follow_on.eq(storage[("FOLLOW_CTRL", None, "on")]), self.follow_start.eq(start),
+                     self.follow.rows.eq(storage[("FOLLOW_CTRL", None, "rows")]),
+                     self.follow.entry_off.eq(storage[("FOLLOW_WINDOW", None, "entry_off")]),
+                     self.follow.exit_off.eq(storage[("FOLLOW_WINDOW", None, "exit_off")]),
+                     self.follow.width.eq(storage[("FOLLOW_SPAN", None, "width")]),
+                     self.follow.guard.eq(storage[("FOLLOW_SPAN", None, "guard")])]
+        addr = storage[("TABLE_ADDR", None, "addr")]
+        word_w = strobe[rmap.reg("TABLE_DATA").addr]
+        m.d.sync += self.table_w_en.eq(word_w)
+        with m.If(word_w):
+            m.d.sync += [self.table_w_addr.eq(addr), self.table_w_data.eq(land_data[None]), addr.eq(addr + 1)]
+        env.table_crc = table_crc = Signal(32, init=0xFFFFFFFF, name="table_crc")
+        _crc_run(m, table_crc, strobe[rmap.reg("TABLE_ADDR").addr], word_w, land_data[None], "table_crc")
+        # sticky until the STATUS read that reports them (as the overflow)
+        st = env.stage[self._status_delay]
+        clear = st.valid & ~st.write & (st.addr == rmap.reg("STATUS").addr)
+        env.follow_late, env.follow_overrun = Signal(name="follow_late"), Signal(name="follow_overrun")
+        m.d.sync += [env.follow_late.eq(Mux(clear, 0, env.follow_late) | self.follow_late_set),
+                     env.follow_overrun.eq(Mux(clear, 0, env.follow_overrun) | self.follow_overrun_set)]
+
     def _read_back(self, env):
         """The read-back: three parts, each sampled at its own stage, each a
         registered selection over the registers, ORed."""
@@ -893,6 +929,10 @@ class RegisterFile(wiring.Component):
             hooks_stored[("CTRL", l, "rejected")] = rejected[l]
             hooks_stored[("DELAY", l, "applied")] = taps[l]
         hooks_stored[("COMMON_DELAY", None, "applied")] = applies
+        if env.table_crc is not None:
+            hooks_stored[("TABLE_CRC", None, "crc")] = ~env.table_crc
+            hooks_status[("STATUS", None, "late")] = env.follow_late
+            hooks_status[("STATUS", None, "overrun")] = env.follow_overrun
         hooks_scan = {}
         if rmap.contract.scan:
             hooks_stored[("PATTERN_CRC", None, "crc")] = ~env.pattern_crc

@@ -22,12 +22,16 @@ from .registers import BusSignature, RegisterFile, channel_regs_layout, slot_val
 from .acp_input import AcpInput
 from .scan_generator import ScanGenerator, SCAN_MODES
 from .pipeline.pattern_gain import BEAM_LAYOUT, PATTERN_LAYOUT
+from .follow.assigner import BeamAssigner
+from .follow.loader import FollowLoader
+from .follow.table import TurbineTable
 from rast.model.contract.fixedpoint import (ReplayContract, INPUT_WIDTH, OUTPUT_WIDTH, COMMON_LAG,
                                             ACCEPT_LAG, POOL_FETCH_CYCLES, SDRAM_QUEUE_DEPTH,
                                             SDRAM_REQUEST_FIFO, SDRAM_MAX_POOL_WORDS, REGISTER_STAGING,
                                             WRITE_STAGING, take_interval, tree_cycles,
                                             tree_operand_registers, visit_cycles, reset_slot)
 from rast.model.contract.regmap import register_map, FOLLOW_SWITCH_STEP_BITS
+from rast.model.contract.follow import FOLLOW_STEP_BITS
 from rast.model.contract.powerup import ChannelInit, pool_contents
 
 __all__ = ["WindFarmReplay", "SDRAM_ADDRESS_WIDTH", "SATURATION_CYCLES"]
@@ -66,7 +70,7 @@ class WindFarmReplay(wiring.Component):
     ----------
     channels : int
         N, 1 to ReplayContract.MAX_CHANNELS.
-    slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz, pool, scan, start_frac :
+    slots, pool_words, max_delay, max_tap, interpolation, cmult_form, sample_rate_hz, pool, scan, start_frac, follow_rows :
         See :class:`rast.model.contract.fixedpoint.ReplayContract`. With ``pool="sdram"``
         the streams are fetched through :class:`~rast.hdl.sdram_pool.SDRAMStreamPool`
         whose native port is ``native`` in the clock domain ``sdram`` (the
@@ -116,12 +120,12 @@ class WindFarmReplay(wiring.Component):
     def __init__(self, channels=4, *, slots=1, pool_words=ReplayContract.pool_words,
                  max_delay=ReplayContract.max_delay, max_tap=ReplayContract.max_tap,
                  interpolation="fir", cmult_form="4mult", sample_rate_hz=0, pool="bram", scan=False,
-                 start_frac=False, init=None, init_common_delay=0, acp_filter_clocks=16, sdram_preloaded=False):
+                 start_frac=False, follow_rows=0, init=None, init_common_delay=0, acp_filter_clocks=16, sdram_preloaded=False):
         self._contract = ReplayContract(channels=channels, slots=slots, pool_words=pool_words,
                                         max_delay=max_delay, max_tap=max_tap,
                                         interpolation=interpolation, cmult_form=cmult_form,
                                         sample_rate_hz=sample_rate_hz, pool=pool, scan=scan,
-                                        start_frac=start_frac)
+                                        start_frac=start_frac, follow_rows=follow_rows)
         self._acp_inputs = (AcpInput(acp_filter_clocks), AcpInput(acp_filter_clocks)) if scan else None
         init = list(init or [])
         if len(init) > channels:
@@ -216,8 +220,8 @@ class WindFarmReplay(wiring.Component):
                               b0=0 if M == 1 else 1,                  # a pipeline's update stage
                               K=c.output_cycles, regs_layout=channel_regs_layout(self._rmap),
                               values_layout=slot_values_layout(self._rmap))
-        for stage in (self._input, self._registers, self._beam, self._common_line, self._pool_and_scan,
-                      self._pipelines, self._requests, self._sum_and_output):
+        for stage in (self._input, self._registers, self._beam, self._follow, self._common_line,
+                      self._pool_and_scan, self._pipelines, self._requests, self._sum_and_output):
             stage(env)
         return m
 
@@ -307,7 +311,11 @@ class WindFarmReplay(wiring.Component):
             # and none after: the generator takes a step ACCEPT_LAG clocks after
             # its accept, and the landing clock's own input in the clock after
             scan_delay=WRITE_STAGING + ACCEPT_LAG)
-        wiring.connect(m, wiring.flipped(self.bus), regs.bus)
+        if c.follow_rows:
+            env.loader = loader = FollowLoader(self._rmap)
+            _share_bus(m, self.bus, loader.bus, regs.bus)
+        else:
+            wiring.connect(m, wiring.flipped(self.bus), regs.bus)
         # ``take`` (the bus's ready) from a register: it reaches the host bridge's
         # control, and decoded from the slot counter it was the 10-channel
         # build's critical path (slot -> ready -> bridge, 7.7 ns). One clock
@@ -354,6 +362,7 @@ class WindFarmReplay(wiring.Component):
             with m.If(env.start & env.stepped):
                 m.d.sync += steps.eq(steps + 1)
             m.d.comb += [regs.step_lo.eq(steps), regs.land_tick.eq(env.start)]
+            env.steps_lo = steps
         env.__dict__.update(V=V, regs=regs, sdram=sdram, w_held=w_held, w_held_addr=w_held_addr,
                             w_held_data=w_held_data, w_lost=w_lost)
 
@@ -527,7 +536,7 @@ class WindFarmReplay(wiring.Component):
         """The antenna scan: the radar's pulses, the beam's generator, and the
         beam of each step as the generator takes it, with the pattern's
         settings, for the pipelines (``beam``, ``pattern``)."""
-        env.beam = env.pattern = None
+        env.beam = env.pattern = env.gen_beam = None
         if not self._contract.scan:
             return
         m, regs, stepped = env.m, env.regs, env.stepped
@@ -550,7 +559,42 @@ class WindFarmReplay(wiring.Component):
         m.d.comb += [pattern.shift.eq(regs.pattern_shift), pattern.floor.eq(regs.pattern_floor),
                      pattern.w_en.eq(regs.pattern_w_en), pattern.w_addr.eq(regs.pattern_w_addr),
                      pattern.w_data.eq(regs.pattern_w_data)]
-        env.beam, env.pattern = beam, pattern
+        env.beam, env.pattern, env.gen_beam = beam, pattern, gen.beam
+
+    def _follow(self, env):
+        """Channels that follow the beam: the turbine table, the assigner
+        (the generator's beam), the loader (writing through the bus beside
+        the host) and the scene's step counter (docs/beam_following.md)."""
+        c = self._contract
+        if not c.follow_rows:
+            return
+        m, regs, loader = env.m, env.regs, env.loader
+        m.submodules.turbines = table = TurbineTable(c.follow_rows)
+        m.submodules.assigner = assigner = BeamAssigner(rows=c.follow_rows, channels=c.channels)
+        m.submodules.loader = loader
+        # the scene's steps, counted at the landing clock as FOLLOW_SWITCH's; the
+        # start lands before step 0: this period's, or the next one
+        scene = Signal(FOLLOW_STEP_BITS, name="scene_step")
+        with m.If(regs.follow_start):
+            m.d.sync += scene.eq(env.stepped)
+        with m.Elif(env.start & env.stepped):
+            m.d.sync += scene.eq(scene + 1)
+        overrun_q = Signal()
+        m.d.sync += overrun_q.eq(assigner.overrun)
+        took = assigner.event.valid & assigner.event.ready
+        m.d.comb += [table.w_en.eq(regs.table_w_en), table.w_addr.eq(regs.table_w_addr),
+                     table.w_data.eq(regs.table_w_data),
+                     assigner.settings.eq(regs.follow), assigner.start.eq(regs.follow_start),
+                     assigner.beam.eq(env.gen_beam),
+                     table.az_addr.eq(assigner.az_addr), assigner.az_data.eq(table.az_data),
+                     loader.event.payload.eq(assigner.event.payload),
+                     loader.event.valid.eq(assigner.event.valid & regs.follow_on),
+                     assigner.event.ready.eq(loader.event.ready & regs.follow_on),
+                     table.row_addr.eq(loader.row_addr), loader.row_data.eq(table.row_data),
+                     loader.scene.eq(scene), loader.steps_lo.eq(env.steps_lo),
+                     regs.follow_late_set.eq(loader.late | (took & assigner.event.payload.enter
+                                                           & assigner.event.payload.late)),
+                     regs.follow_overrun_set.eq(assigner.overrun & ~overrun_q)]
 
     def _pipelines(self, env):
         """The pipelines, each with its copies of the accept, c[n], the offer and the pool's answers."""
@@ -707,3 +751,16 @@ class WindFarmReplay(wiring.Component):
                      self.o.valid.eq(fifo.r_rdy), self.o.payload.eq(fifo.r_data),
                      fifo.r_en.eq(self.o.ready)]
 
+
+
+def _share_bus(m, host, loader, regs_bus):
+    """The register bus shared by the host (``host``, the block's port) and
+    the follow loader (writes only): the loader's write is offered whenever
+    it has one, the host's access otherwise; each sees ``ready`` only for its
+    own, so either waits as for a busy bus. Read data go to the host."""
+    mine = loader.w_stb
+    m.d.comb += [regs_bus.addr.eq(Mux(mine, loader.addr, host.addr)),
+                 regs_bus.w_data.eq(Mux(mine, loader.w_data, host.w_data)),
+                 regs_bus.w_stb.eq(Mux(mine, 1, host.w_stb)), regs_bus.r_stb.eq(~mine & host.r_stb),
+                 host.ready.eq(regs_bus.ready & ~mine), loader.ready.eq(regs_bus.ready & mine),
+                 host.r_data.eq(regs_bus.r_data), host.r_valid.eq(regs_bus.r_valid)]
