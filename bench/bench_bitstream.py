@@ -39,6 +39,10 @@ LADDER = {
                    "(M = 8, 8 pipelines), 65,536-word pool", dict()),
     "n64s_20_160": ("the default with the antenna scan (`--scan`): ACP/ARP inputs, per-channel AZIMUTH, "
                     "a pattern table and gain multiplier per pipeline", dict(scan=True)),
+    "f64_2p5_160": ("channels that follow the beam (`--scan --follow 2048 --sdram`): 64 FIR channels at "
+                    "2.5 MS/s on a 160 MHz fabric (M = 64, one pipeline), streams in SDRAM, a 2,048-row "
+                    "turbine table (docs/beam_following.md)",
+                    dict(sample_rate_mhz=2.5, pool="sdram", scan=True, follow_rows=2048)),
     "n64_20_200": ("64 FIR channels at 20 MS/s on a 200 MHz fabric (M = 10, 7 pipelines), 81,920-word "
                    "pool: the withdrawn target", dict(clock_mhz=200, pool_words=81920)),
     "n16_100_200": ("wide band: 16 FIR channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",
@@ -100,6 +104,8 @@ def command_of(kw) -> str:
             out.append("--sdram" if value == "sdram" else "")
         elif key == "scan":
             out.append("--scan" if value else "")
+        elif key == "follow_rows":
+            out.append(f"--follow {value}" if value else "")
         else:
             out.append(f"{flags[key]} {value:g}" if isinstance(value, float) else f"{flags[key]} {value}")
     return " ".join(x for x in out if x)

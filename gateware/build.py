@@ -164,6 +164,7 @@ class BuildConfig:
     extra_nextpnr: list = field(default_factory=list)
     pool: str = "bram"
     scan: bool = False                 # the antenna scan built in (ACP/ARP pins, AZIMUTH, the pattern)
+    follow_rows: int = 0               # channels that follow the beam: the turbine table's rows (needs scan)
 
     def __post_init__(self):
         if not isinstance(self.pool, str) or self.pool not in POOL_BACKENDS:
@@ -193,7 +194,8 @@ class BuildConfig:
         return dict(channels=self.channels, slots=self.slots, pool_words=self.pool_words,
                     max_delay=self.max_delay, max_tap=self.max_tap,
                     interpolation=self.interpolation, cmult_form=self.cmult_form, pool=self.pool,
-                    scan=self.scan)
+                    scan=self.scan, **({"start_frac": True, "follow_rows": self.follow_rows}
+                                       if self.follow_rows else {}))
 
 
 def tool_env(env=None):

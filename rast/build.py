@@ -1,6 +1,6 @@
 """build the ECP5 bitstream of the replay block and a JSON timing/resource report
 
-``rast build [--board ulx3s-85f] [--channels N] [--sample-rate-mhz FS] [--clock-mhz FCLK] [--sdram] [--scan] --out DIR``
+``rast build [--board ulx3s-85f] [--channels N] [--sample-rate-mhz FS] [--clock-mhz FCLK] [--sdram] [--scan [--follow ROWS]] --out DIR``
 runs Yosys, nextpnr-ecp5 and ecppack (YoWASP builds from PyPI), writes
 ``DIR/rast_top.bit`` and ``DIR/report.json``, and exits 1 when the design
 misses timing at the requested clock or a tool fails. Mistakes in the
@@ -41,6 +41,9 @@ def add_arguments(p):
     d.add_argument("--scan", action="store_true",
                    help="build the antenna scan in: ACP/ARP inputs, a per-channel AZIMUTH and the two-way "
                         "pattern in each channel's gain (docs/antenna_scan.md)")
+    d.add_argument("--follow", type=int, default=0, metavar="ROWS",
+                   help="channels that follow the beam, from a turbine table of ROWS rows (with --scan; "
+                        "docs/beam_following.md)")
     d.add_argument("--sample-rate-mhz", type=float, default=dflt.sample_rate_mhz,
                    help=f"RTS sample rate, MHz: the converters' clock (default {dflt.sample_rate_mhz:g}, "
                         "the examples' rate)")
@@ -73,7 +76,9 @@ def run(args) -> int:
                           clock_mhz=args.clock_mhz, baud=args.baud, pool_words=args.pool_words,
                           max_delay=args.max_delay, max_tap=args.max_tap, interpolation=args.interpolation,
                           cmult_form=args.cmult_form, seed=args.seed, pool="sdram" if args.sdram else "bram",
-                          scan=args.scan)
+                          scan=args.scan, follow_rows=args.follow)
+        if args.follow and not args.scan:
+            raise ValueError("--follow needs --scan: the channels follow the antenna's beam")
         check(cfg)          # everything that can be checked before a tool runs
     except ValueError as error:
         raise UserError(str(error)) from None
