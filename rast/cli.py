@@ -91,7 +91,7 @@ def cmd_stream(args) -> int:
     from rast.errors import read_build
     from rast.model.physics.beam_window import farm_follow_plan
     from rast.model.files.ramfiles import make_farm_files
-    from rast.model.contract.loadplan import manifest_to_register_writes
+    from rast.model.contract.loadplan import follow_load, manifest_to_register_writes
     from rast.model.physics.stream import farm_for_build
 
     check_output(args.out, folder=True, option="--out")
@@ -99,12 +99,21 @@ def cmd_stream(args) -> int:
     contract = read_build(args.build) if args.build else None
     if contract is not None:
         farm = farm_for_build(farm, contract)
+        if contract.follow_rows:        # the channels the scene needs at once, before any stream is made
+            try:
+                farm_follow_plan(farm, channels=contract.channels, contract=contract)
+            except ValueError as error:
+                raise UserError(f"the scene does not fit the build {args.build}: {error}") from None
     progress = _StreamProgress(farm)
 
     def fits_the_build(farm_streams):       # before any file is moved into --out
         if contract is not None:
             try:
-                manifest_to_register_writes(farm_streams.manifest(), contract, target="board")
+                if contract.follow_rows:
+                    follow_load(farm_streams.manifest(), contract,
+                                streams=[s.words_u32() for s in farm_streams.streams])
+                else:
+                    manifest_to_register_writes(farm_streams.manifest(), contract, target="board")
             except ValueError as error:
                 raise UserError(f"the streams do not fit the build {args.build}: {error}") from None
 

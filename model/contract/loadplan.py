@@ -3,6 +3,7 @@ writes that load it (``rast load``, the cosimulations) or the power-up state
 that bakes it in (``rast verilog --manifest``), with the checks that refuse a
 manifest made for another build."""
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from rast.model.contract.fixedpoint import (ReplayContract, GAIN_WIDTH, TARGETS, path_latency,
@@ -13,7 +14,8 @@ from rast.model.contract.regmap import (register_map, stream_crc32, RegisterMap,
 from rast.model.contract.scan import PATTERN_ENTRIES, PATTERN_ONE, AZIMUTH_CODES
 
 __all__ = ["read_hex_words", "CALIBRATION_KEYS", "pool_layout", "channel_regions", "free_region", "stream_writes",
-           "NoRoomBeside", "manifest_to_register_writes", "manifest_channel_inits"]
+           "NoRoomBeside", "manifest_to_register_writes", "manifest_channel_inits", "FollowLoad", "follow_load",
+           "follow_register_writes"]
 
 
 def read_hex_words(path) -> list:
@@ -75,13 +77,17 @@ def _fixed_latency(manifest, contract, target):
                    f"(dac_latency))")
 
 
-def _channel_values(manifest, contract, target="block"):
+def _channel_values(manifest, contract, target="block", rows=False):
     """``(common_delay, [per-channel values])``: COMMON_DELAY reaches the
     nearest windmill (at most ``max_delay``), each channel's tap the rest of
-    its delay beyond the fixed latency."""
+    its delay beyond the fixed latency. ``rows``: the windmills are rows of
+    a turbine table (channels that follow the beam), not channels."""
     _check_build(manifest, contract)
     chans = manifest["registers"]["channels"]
-    if len(chans) > contract.channels:
+    if rows and len(chans) > contract.follow_rows:
+        raise ValueError(f"Manifest has {len(chans)} windmills but the replay block's turbine table "
+                         f"holds {contract.follow_rows} rows")
+    if not rows and len(chans) > contract.channels:
         raise ValueError(f"Manifest has {len(chans)} windmills but the replay block has "
                          f"{contract.channels} channels")
     fixed, parts = _fixed_latency(manifest, contract, target)
@@ -381,3 +387,104 @@ def manifest_channel_inits(manifest: dict, contract: ReplayContract, stream_dir=
                         channel_regions(manifest["registers"]["channels"]))
     return [ChannelInit(tuple(words[i]), v["inc"], v["gain"], v["delay"], bool(v["enable"]), bases[i],
                         v["azimuth"]) for i, v in enumerate(values)], common
+
+
+@dataclass
+class FollowLoad:
+    """What loads a turning manifest into a block whose channels follow the
+    beam (:func:`follow_load`): ``regions`` (pool base, words) of the rolled
+    streams, each checked by the host against STREAM_CRC after its words;
+    ``table`` the turbine table's words (TABLE_CRC is their CRC-32); the
+    register writes ``stop`` (channels and following off), ``settings``
+    (the zeroed pattern, the window, the delays, the channels on) and
+    ``start`` (FOLLOW_CTRL with the start and the scan's start)."""
+    regions: list
+    table: list
+    rows: list
+    stop: list
+    settings: list
+    start: list
+    guard: int
+
+    @property
+    def table_crc(self) -> int:
+        return stream_crc32(self.table)
+
+
+def follow_load(manifest: dict, contract: ReplayContract, *, stream_dir=None, streams=None,
+                target: str = "board") -> FollowLoad:
+    """A turning manifest for a block built with ``follow_rows``: each
+    windmill a row of the turbine table (sorted by azimuth), each stream held
+    rolled (its period and then all but one of its words again, so that the
+    loader may start it at any word: BASE = the row's base + the phase's whole
+    words), a region shared between alike windmills likewise (every member's
+    start plus twice the period but one word), the pattern with the entries
+    at or below ``assign_below_db`` at 0, and the guard timed on ``contract``
+    for its channels (``rast.model.contract.follow``). Refused: a block
+    without following, a manifest that stares or whose pattern's floor lies
+    above ``assign_below_db``, more windmills than rows, a pool too small."""
+    from types import SimpleNamespace
+    from rast.model.contract.follow import FollowRow, follow_guard_codes, pack_rows
+    if not contract.follow_rows:
+        raise ValueError("the replay block's channels do not follow the beam: build it with --follow")
+    scan = _check_scan(manifest, contract)
+    follow = manifest.get("follow")
+    if scan is None or follow is None:
+        raise ValueError("channels that follow the beam need a manifest whose antenna turns and whose pattern "
+                         "falls to assign_below_db (sidelobe_db at or below it)")
+    common, values = _channel_values(manifest, contract, target, rows=True)
+    chans = manifest["registers"]["channels"]
+    words = _load_streams(manifest, stream_dir, streams, values)
+    if words is None:
+        raise ValueError("following needs the streams (the manifest's folder)")
+    # the rolled regions: a shared one holds every member's words from its
+    # offset for 2N - 1 words (the period continued)
+    regions, placed, at, bases = [], {}, 0, []
+    for k, ch in enumerate(chans):
+        n = len(words[k])
+        region = ch.get("pool_region")
+        key, offset, size = ((region["stream"], int(region["offset"]), int(region["words"]) + n - 1)
+                             if region else (("own", k), 0, 2 * n - 1))
+        if key not in placed:
+            placed[key] = (at, [None] * size)
+            at += size
+        base, content = placed[key]
+        for i in range(2 * n - 1):
+            content[offset + i] = int(words[k][i % n]) & 0xFFFFFFFF
+        bases.append(base + offset)
+    if at > contract.pool_words:
+        raise ValueError(f"the rolled streams need {at} words together but the stream pool holds "
+                         f"{contract.pool_words}")
+    regions = [(base, [0 if w is None else w for w in content]) for base, content in placed.values()]
+    rows = sorted((FollowRow(v["azimuth"], v["gain"], v["delay"], bases[k], v["length"], v["inc"])
+                   for k, v in enumerate(values)), key=lambda r: r.azimuth)
+    table = [int(w) for w in pack_rows(rows)]
+    beam = SimpleNamespace(mode=scan["scan_mode"], acp_per_rev=scan["acp_per_rev"], rpm=float(scan["scan_rpm"]))
+    guard = follow_guard_codes(beam, contract, contract.channels)
+    lo, hi = int(follow["lo"]), int(follow["hi"])
+    width = hi + 1 - lo + guard
+    if width >= AZIMUTH_CODES:
+        raise ValueError(f"the window with its guard ({width} codes) spans the whole revolution")
+    rmap = register_map(contract)
+    a = rmap.addr
+    zeroed = {**scan, "pattern": {**scan["pattern"], "words": list(follow["words"]), "floor": 0}}
+    load, scan_start = scan_writes(rmap, zeroed)
+    stop = [(a("FOLLOW_CTRL"), 0)] + [(a("CTRL", ch), 0) for ch in range(contract.channels)]
+    settings = load + [(a("COMMON_DELAY"), common), (a("APPLY"), 1),
+                       (a("FOLLOW_WINDOW"), (lo - guard) % AZIMUTH_CODES | ((hi + 1) % AZIMUTH_CODES) << 16),
+                       (a("FOLLOW_SPAN"), width | guard << 16)]
+    settings += [w for ch in range(contract.channels) for w in ((a("GAIN", ch), 0), (a("CTRL", ch), CTRL_ENABLE))]
+    rows_field = rmap.reg("FOLLOW_CTRL").field("rows")
+    start = scan_start + [(a("FOLLOW_CTRL"), 1 | len(rows) << rows_field.lsb | 1 << 31)]
+    return FollowLoad(regions, table, rows, stop, settings, start, guard)
+
+
+def follow_register_writes(load: FollowLoad, rmap: RegisterMap) -> list:
+    """:class:`FollowLoad` as one list of writes (the streams, the table, then
+    the settings and the start), for a loader that checks nothing between."""
+    a = rmap.addr
+    w = list(load.stop)
+    for base, words in load.regions:
+        w += [(a("STREAM_ADDR"), base)] + [(a("STREAM_DATA"), x) for x in words]
+    w += [(a("TABLE_ADDR"), 0)] + [(a("TABLE_DATA"), x) for x in load.table]
+    return w + load.settings + load.start

@@ -38,7 +38,8 @@ from rast.model.physics.sharing import (Share, candidate_groups, pool_words_shar
 from rast.model.physics.synthesis import ComputePool, Synthesis, synthesise_period
 from rast.model.physics.turbine import max_doppler_hz
 from rast.model.contract.regmap import stream_crc32
-from rast.model.contract.scan import azimuth_code, scan_settings
+from rast.model.contract.scan import azimuth_code, pattern_words, scan_settings
+from rast.model.contract.follow import follow_pattern
 
 __all__ = ["MIN_STREAM_WORDS", "MAX_STREAM_WORDS", "StreamPlan", "WindmillStream", "FarmStreams", "EchoSum",
            "plan_stream", "stream_times", "quantise", "quantise_words", "build_farm_streams",
@@ -493,6 +494,15 @@ class FarmStreams:
                              "acp_per_rev": sc.acp_per_rev, "beamwidth_deg": sc.beamwidth_deg,
                              "sidelobe_db": sc.sidelobe_db,
                              **scan_settings(sc, farm.sample_rate_hz)}}
+            # a board whose channels follow the beam loads the pattern with the
+            # entries at or below assign_below_db at 0 (rast.model.contract.follow)
+            try:
+                window = follow_pattern(sc, pattern_words(sc))
+            except ValueError:
+                window = None
+            if window is not None:
+                scan["follow"] = {"assign_below_db": sc.assign_below_db, "lo": window.lo, "hi": window.hi,
+                                  "words": [int(w) for w in window.table.words]}
         return {
             "format": "rast-manifest/2",
             "sample_rate_hz": farm.sample_rate_hz,
@@ -530,7 +540,16 @@ def farm_for_build(farm: Farm, contract: fx.ReplayContract) -> Farm:
                         f"{fx.rate_mismatch(farm.sample_rate_hz, contract.sample_rate_hz)}; set "
                         f"sample_rate = {contract.sample_rate_hz / 1e6:g} or build for "
                         f"{farm.sample_rate_mhz:g} MHz")
-    if len(farm.windmills) > contract.channels:
+    if contract.follow_rows:
+        # channels that follow the beam: a row per windmill; the channels the
+        # scene needs at once are checked by the plan (beam_window.farm_follow_plan)
+        if len(farm.windmills) > contract.follow_rows:
+            problems.append(f"the farm has {len(farm.windmills)} windmills but the build's turbine table "
+                            f"holds {contract.follow_rows} rows")
+        if not farm.scan.turning:
+            problems.append("the build's channels follow the beam but 'scan_mode' is \"stare\": set "
+                            "scan_mode = \"free\" or \"acp\"")
+    elif len(farm.windmills) > contract.channels:
         problems.append(f"the farm has {len(farm.windmills)} windmills but the build has "
                         f"{contract.channels} channels")
     if farm.scan.turning and not contract.scan:
