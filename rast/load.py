@@ -34,7 +34,8 @@ from rast.model.contract.hostproto import HostBridge, BRIDGE_ID, DEFAULT_BAUD, P
 from rast.model.contract.regmap import (ID_VALUE, register_map, stream_crc32, CTRL_ENABLE, CTRL_REJECTED,
                                         APPLIED_LSB)
 from rast.model.contract.datapath import ONE
-from rast.model.contract.loadplan import NoRoomBeside, manifest_to_register_writes, scan_writes, pattern_crc
+from rast.model.contract.loadplan import (NoRoomBeside, follow_load, manifest_to_register_writes, scan_writes,
+                                          pattern_crc)
 
 __all__ = ["add_arguments", "run", "read_contract", "load_manifest", "read_manifest_dir", "plan_writes",
            "send_writes", "read_status", "verify_pool", "stream_runs", "playing_streams", "stream_segments",
@@ -202,6 +203,8 @@ def load_manifest(bridge, manifest_dir, contract=None, *, streams=True, progress
     contract = contract or read_contract(bridge)
     if verify:
         _require_read_back(contract)                 # before anything is written
+    if contract.follow_rows:
+        return load_following(bridge, manifest, words, contract)
     plan_writes(manifest, contract, words)           # refuses a manifest that does not fit at all
     for attempt in range(RETRIES + 1):
         try:
@@ -245,6 +248,59 @@ def _load_once(bridge, manifest, words, contract, progress, wait, live):
         res["muted_why"] = why
         res["switch_s"] = switch_s if playing is not None else 0.0
     return res
+
+
+def _sent_until(bridge, writes, crc_addr, want, what) -> int:
+    """Send ``writes`` and read ``crc_addr`` until it is ``want`` (RETRIES
+    more times); returns the times sent again."""
+    for attempt in range(RETRIES + 1):
+        bridge.write_many(writes)
+        got = _read_twice(bridge, crc_addr, want)
+        if got == want:
+            return attempt
+    raise LoadError(f"{what} did not arrive intact after {RETRIES + 1} tries (CRC-32 read {got:#010x}, "
+                    f"sent {want:#010x}); following stays off. Load again.")
+
+
+def load_following(bridge, manifest, words, contract) -> dict:
+    """A turning manifest into a block whose channels follow the beam
+    (``rast.model.contract.loadplan.follow_load``): following off, each
+    rolled stream region checked against STREAM_CRC, the turbine table
+    against TABLE_CRC and the zeroed pattern against PATTERN_CRC (each sent
+    again until it matches, RETRIES times), the window, the delays and the
+    channels, then the scan's and the following's start; the settings read
+    back. Refused before any write: a manifest that does not fit."""
+    try:
+        plan = follow_load(manifest, contract, streams=words)
+    except ValueError as error:
+        raise UserError(f"the manifest does not fit the block: {error}") from None
+    rmap = register_map(contract)
+    a = rmap.addr
+    bridge.write_many(plan.stop)
+    retries = []
+
+    def checked(writes, crc_addr, want, what):
+        if _sent_until(bridge, writes, crc_addr, want, what):
+            retries.append(what)
+    for base, region in plan.regions:
+        checked([(a("STREAM_ADDR"), base)] + [(a("STREAM_DATA"), w) for w in region], a("STREAM_CRC"),
+                stream_crc32(region), f"the stream words at {base}")
+    checked([(a("TABLE_ADDR"), 0)] + [(a("TABLE_DATA"), w) for w in plan.table], a("TABLE_CRC"), plan.table_crc,
+            "the turbine table")
+    pattern = [w for w in plan.settings if rmap.by_addr(w[0]).name.startswith(("PATTERN", "SCAN_CTRL"))]
+    checked(pattern, a("PATTERN_CRC"), stream_crc32([v for addr, v in pattern if addr == a("PATTERN_DATA")]),
+            "the pattern table")
+    rest = [w for w in plan.settings if w not in pattern]
+    bridge.write_many(rest)
+    bridge.write_many(plan.start)
+    wrong = {addr: v for addr, (r, v) in expected_readback(rest + plan.start, rmap).items()
+             if bridge.read(addr) & sum(f.mask for f in r.fields if f.access == "rw") != v}
+    if wrong:
+        raise LoadError("The following's registers read back differently: "
+                        + ", ".join(_name(rmap, addr) for addr in wrong))
+    return {"following": True, "rows": len(plan.rows), "regions": len(plan.regions), "guard_codes": plan.guard,
+            "retries": retries, "line_retries": 0, "live": False, "muted_why": "channels that follow the beam",
+            "switch_s": 0.0}
 
 
 def load_scan(bridge, contract, scan) -> dict:

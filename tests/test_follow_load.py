@@ -158,3 +158,83 @@ def test_a_pattern_whose_floor_stays_above_the_assignment_floor_cannot_follow(tm
     assert main(["stream", str(_config(tmp_path, [10.0, 50.0], sidelobe=-50)), "--out", str(out),
                  "--build", str(report)]) == 2
     assert "sidelobe_db -50 dB lies above assign_below_db -60 dB" in capsys.readouterr().err
+
+
+def test_rast_load_writes_the_rolled_streams_the_table_and_the_window_into_the_block(loaded):
+    """`rast load` of a following build, against a block answered by the
+    bit-exact model: the pool holds the rolled regions, TABLE_CRC and
+    PATTERN_CRC read what was sent, the window's registers and FOLLOW_CTRL
+    (on, the rows) read back."""
+    from rast.load import load_manifest
+    from rast.model.contract.datapath import ReplayModel
+    from rast.model.contract.hostproto import HostBridge
+    from rast.sim.uart_chain import ModelBoard
+    contract, manifest, out, load, _ = loaded
+    model = ReplayModel(contract)
+    res = load_manifest(HostBridge(ModelBoard(model)), out, contract)
+    assert res["following"] and res["rows"] == len(load.rows) and not res["retries"]
+    for base, words in load.regions:
+        assert np.array_equal(model.pool[base:base + len(words)], words)
+    rmap = register_map(contract)
+    assert model.read(rmap.addr("TABLE_CRC")) == load.table_crc
+    assert model.read(rmap.addr("PATTERN_CRC")) == stream_crc32(manifest["follow"]["words"])
+    assert np.array_equal(model.table, manifest["follow"]["words"])
+    ctrl = model.read(rmap.addr("FOLLOW_CTRL"))
+    assert ctrl & 1 and ctrl >> 4 & 0x1FFF == len(load.rows)
+    assert model.beam.mode == 1                                         # the scan started
+
+
+def test_rast_load_refuses_a_staring_manifest_for_a_following_block(tmp_path):
+    from rast.errors import UserError
+    from rast.load import load_manifest
+    from rast.model.contract.datapath import ReplayModel
+    from rast.model.contract.hostproto import HostBridge
+    from rast.sim.uart_chain import ModelBoard
+    contract, _ = _follow_build(tmp_path, channels=8)
+    text = _config(tmp_path, [10.0, 50.0]).read_text().replace('scan_mode = "free"', 'scan_mode = "stare"')
+    (tmp_path / "stare.toml").write_text(text)
+    out = tmp_path / "out"
+    assert main(["stream", str(tmp_path / "stare.toml"), "--out", str(out)]) == 0
+    model = ReplayModel(contract)
+    with pytest.raises(UserError, match="need a manifest whose antenna turns"):
+        load_manifest(HostBridge(ModelBoard(model)), out, contract)
+    assert model.stream_addr == 0 and not model.pool.any()               # nothing written
+
+
+class _DamagedTable:
+    """The line to a model board, flipping a bit of the first ``times``
+    bursts of TABLE_DATA words."""
+
+    def __init__(self, board, addr, times):
+        self.board, self.addr, self.left = board, addr, times
+
+    def write(self, frame):
+        from rast.model.contract.hostproto import CMD_BURST
+        if self.left and frame[:1] == bytes([CMD_BURST]) and int.from_bytes(frame[1:3], "little") == self.addr:
+            frame = bytearray(frame)
+            frame[5 + 4 * 3] ^= 0x10
+            frame, self.left = bytes(frame), self.left - 1
+        return self.board.write(frame)
+
+    def read(self, n):
+        return self.board.read(n)
+
+
+@pytest.mark.parametrize("times", [1, 4])
+def test_a_damaged_table_is_sent_again_and_one_damaged_every_time_leaves_following_off(loaded, times):
+    from rast.load import RETRIES, LoadError, load_manifest
+    from rast.model.contract.datapath import ReplayModel
+    from rast.model.contract.hostproto import HostBridge
+    from rast.sim.uart_chain import ModelBoard
+    contract, manifest, out, load, _ = loaded
+    model = ReplayModel(contract)
+    rmap = register_map(contract)
+    line = _DamagedTable(ModelBoard(model), rmap.addr("TABLE_DATA"), times)
+    if times <= RETRIES:
+        res = load_manifest(HostBridge(line), out, contract)
+        assert line.left == 0 and res["retries"] == ["the turbine table"]
+        assert model.read(rmap.addr("TABLE_CRC")) == load.table_crc
+    else:
+        with pytest.raises(LoadError, match="the turbine table did not arrive intact"):
+            load_manifest(HostBridge(line), out, contract)
+        assert not model.read(rmap.addr("FOLLOW_CTRL")) & 1
