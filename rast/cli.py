@@ -101,7 +101,7 @@ def cmd_stream(args) -> int:
         farm = farm_for_build(farm, contract)
         if contract.follow_rows:        # the channels the scene needs at once, before any stream is made
             try:
-                farm_follow_plan(farm, channels=contract.channels, contract=contract)
+                farm_follow_plan(farm, contract, channels=contract.channels)
             except ValueError as error:
                 raise UserError(f"the scene does not fit the build {args.build}: {error}") from None
     progress = _StreamProgress(farm)
@@ -134,7 +134,7 @@ def cmd_stream(args) -> int:
         print(f"antenna scan {farm.scan.mode!r}: the streams are those of a staring antenna; the manifest "
               "carries each turbine's azimuth and the pattern, which a bitstream built with --scan applies "
               "(one without it refuses this manifest)")
-        print(farm_follow_plan(farm, contract=contract))     # (timed on the build's, or the default's)
+        print(farm_follow_plan(farm, contract or default_contract(farm)))    # (timed on the build's)
     print(farm_streams.echo_sum().describe())
     try:
         need = farm_streams.smallest_contract()
@@ -219,12 +219,21 @@ def cmd_preview(args) -> int:
     return 0
 
 
+def default_contract(farm):
+    """The default build at ``farm``'s sample rate: what the guard of a board
+    following the beam is timed on when no build is named."""
+    import dataclasses
+    from rast.gateware.build import BuildConfig
+    contract = BuildConfig(sample_rate_mhz=farm.sample_rate_mhz).contract()
+    return dataclasses.replace(contract, sample_rate_hz=round(farm.sample_rate_hz))
+
+
 def _follow_panel(farm) -> dict:
     """The PPI's second panel for a scene round the radar: the channels a
     board following the beam holds at each beam azimuth (none where the
     pattern's floor lies above ``assign_below_db``)."""
     from rast.model.physics.beam_window import follow_rows_held
-    held = follow_rows_held(farm)
+    held = follow_rows_held(farm, default_contract(farm))
     if held is None:
         return {}
     peak = int(held.argmax())

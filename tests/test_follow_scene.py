@@ -50,13 +50,14 @@ def test_the_channels_the_scene_needs_are_counted_code_by_code():
     in the guarded window at one beam code, counted here for every code."""
     from rast.model.contract.follow import follow_guard_codes, follow_pattern
     from rast.model.contract.scan import AZIMUTH_CODES, azimuth_code, pattern_words
-    from rast.model.physics.beam_window import farm_follow_plan, follow_contract
+    from rast.cli import default_contract
+    from rast.model.physics.beam_window import farm_follow_plan
     from rast.model.physics.farm import load_config
 
     farm = load_config(SCENE)
-    contract = follow_contract(farm)
+    contract = default_contract(farm)
     assert contract.slots == 64 and contract.sample_rate_hz == 2_500_000
-    text = farm_follow_plan(farm)
+    text = farm_follow_plan(farm, contract)
     need = int(re.search(r"at most (\d+) of the (\d+) turbines", text).group(1))
     guard = int(re.search(r"takes its channel (\d+) codes", text).group(1))
     window = follow_pattern(farm.scan, pattern_words(farm.scan))
@@ -76,8 +77,8 @@ def test_the_channels_the_scene_needs_are_counted_code_by_code():
             held[last - AZIMUTH_CODES] -= 1
     assert need == np.cumsum(held)[:AZIMUTH_CODES].max()
     with pytest.raises(ValueError, match=f"{need} turbines are within the beam's window at once"):
-        farm_follow_plan(farm, channels=need - 1)
-    assert f"at most {need} of the" in farm_follow_plan(farm, channels=need)
+        farm_follow_plan(farm, contract, channels=need - 1)
+    assert f"at most {need} of the" in farm_follow_plan(farm, contract, channels=need)
 
 
 @pytest.mark.parametrize("option, value, needle", [("--scan-rpm", "0", "non-zero number of rpm"),

@@ -177,6 +177,20 @@ accepted since reset): at the write's own step when they match, else up to
 255 steps later. So a host, or the board's own loader, that knows the phase
 a turbine will have at a step can start its stream there exactly, whatever
 the gaps in the input.
+
+## Channels that follow the beam
+
+A build with a turbine table (`rast build --scan --follow ROWS`,
+`CONFIG.start_frac` = 1, FOLLOW_CTRL.capacity = ROWS) hands its channels to
+the turbines the beam reaches (`docs/beam_following.md`):
+
+{markdown(_follow_map(c))}
+STATUS has two more sticky bits, `late` (3) and `overrun` (4). `rast load`
+writes the streams rolled (each region checked against STREAM_CRC), the
+table (TABLE_CRC), the pattern with the entries below `assign_below_db` at 0
+(PATTERN_CRC), the window, the delays and every channel enabled at gain 0,
+then SCAN_CTRL and FOLLOW_CTRL with `on`, the rows and `start`. From then on
+the board's loader writes the channels' registers itself.
 """
 
 
@@ -197,6 +211,15 @@ def _start_map(c: ReplayContract):
     sc = dataclasses.replace(c, scan=True, start_frac=True)
     return RegisterMap(sc, [r for r in register_map(sc).registers
                             if (r.name == "START" and r.channel == 0) or r.name == "FOLLOW_SWITCH"])
+
+
+def _follow_map(c: ReplayContract):
+    """The following's global registers of a 2,048-row table, alone."""
+    import dataclasses
+    from rast.model.contract.regmap import RegisterMap
+    fc = dataclasses.replace(c, scan=True, start_frac=True, follow_rows=2048)
+    return RegisterMap(fc, [r for r in register_map(fc).registers
+                            if r.name.startswith(("FOLLOW_CTRL", "FOLLOW_WINDOW", "FOLLOW_SPAN", "TABLE_"))])
 
 
 def _pool_check_map(c: ReplayContract):

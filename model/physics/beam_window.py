@@ -107,43 +107,34 @@ def _follow_setup(farm, contract, channels: int | None):
     return window, az, follow_guard_codes(scan, contract, loads)
 
 
-def follow_contract(farm):
-    """The default build at ``farm``'s sample rate (the guard's timing when
-    no build is named)."""
-    import dataclasses
-    from rast.gateware.build import BuildConfig
-    contract = BuildConfig(sample_rate_mhz=farm.sample_rate_mhz).contract()
-    return dataclasses.replace(contract, sample_rate_hz=round(farm.sample_rate_hz))
-
-
-def follow_rows_held(farm, contract=None):
+def follow_rows_held(farm, contract):
     """The turbines holding a channel of a board following the beam (built
-    as ``contract``; None: :func:`follow_contract`) at each of the 2**16 beam
+    as ``contract``: its timing sets the guard) at each of the 2**16 beam
     codes; None where following saves nothing."""
     from rast.model.contract.follow import rows_held
     if not farm.scan.turning:
         return None
     try:
-        window, az, guard = _follow_setup(farm, contract or follow_contract(farm), None)
+        window, az, guard = _follow_setup(farm, contract, None)
     except ValueError:
         return None
     return rows_held(az, window, guard)
 
 
-def farm_follow_plan(farm, channels: int | None = None, contract=None) -> str:
+def farm_follow_plan(farm, contract, channels: int | None = None) -> str:
     """What a board whose channels follow the beam needs for ``farm``, by the
     contract's rule (``rast.model.contract.follow``: the kept pattern entries,
     the guard, the rows held at once); with ``channels`` (a build's) a scene
     that needs more is refused (ValueError naming the beam and the count).
-    The guard is timed on ``contract`` (None: :func:`follow_contract`), for
-    ``channels`` loads or, without, as many as the scene needs."""
+    The guard is timed on ``contract`` (the build's), for ``channels`` loads
+    or, without, as many as the scene needs."""
     from rast.model.contract.follow import check_follow, follow_occupancy
     from rast.model.contract.scan import AZIMUTH_CODES
 
     scan = farm.scan
     n = len(farm.windmills)
     try:
-        window, az, guard = _follow_setup(farm, contract or follow_contract(farm), channels)
+        window, az, guard = _follow_setup(farm, contract, channels)
     except ValueError as error:
         if channels is not None:
             raise
