@@ -62,7 +62,7 @@ def test_the_phase_at_a_step_is_the_rules_clock_for_clock():
 
 import numpy as np                                              # noqa: E402
 from amaranth.hdl import Elaboratable, Module                   # noqa: E402
-from amaranth.lib.memory import Memory                          # noqa: E402
+from rast.hdl.ecp5_primitives import RegisteredRAM               # noqa: E402
 
 from rast.hdl.follow.assigner import BeamAssigner               # noqa: E402
 from rast.model.contract.follow import Follower, follow_occupancy, follow_pattern   # noqa: E402
@@ -71,17 +71,19 @@ from rast.model.physics.antenna import AntennaScan              # noqa: E402
 
 
 class _AssignerWithTable(Elaboratable):
-    """The assigner reading its rows' azimuths from a block RAM."""
+    """The assigner reading its rows' azimuths from a block RAM with its
+    output register (the turbine table's read)."""
 
     def __init__(self, az, rows, channels):
         self.dut = BeamAssigner(rows=rows, channels=channels)
-        self.table = Memory(shape=16, depth=rows, init=[int(a) for a in az] + [0] * (rows - len(az)))
+        self.table = RegisteredRAM(16, max(2, rows), init=[int(a) for a in az] + [0] * (rows - len(az)),
+                                   continuous=True)
+        assert self.table.latency == BeamAssigner.READ_LATENCY
 
     def elaborate(self, platform):
         m = Module()
         m.submodules.dut, m.submodules.table = self.dut, self.table
-        port = self.table.read_port()
-        m.d.comb += [port.addr.eq(self.dut.az_addr), self.dut.az_data.eq(port.data)]
+        m.d.comb += [self.table.r_addr.eq(self.dut.az_addr), self.dut.az_data.eq(self.table.r_data)]
         return m
 
 
@@ -119,8 +121,8 @@ def _run_assigner(az, guard, channels, beam0, beams, *, rows=None, hold=1, ready
             return ready
 
         async def settle():
-            quiet = 0               # a pass is never more than 6 clocks between events
-            while quiet < 8 or ctx.get(dut.seeding):
+            quiet = 0               # a pass is never more than 7 clocks between events
+            while quiet < 10 or ctx.get(dut.seeding):
                 valid = ctx.get(dut.event.valid)
                 p = ctx.get(dut.event.payload)
                 took = await clock()

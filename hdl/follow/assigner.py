@@ -2,7 +2,7 @@
 when: the queue of entries and exits (``rast.model.contract.follow.Follower``,
 docs/beam_following.md)."""
 
-from amaranth.hdl import Module, Signal, Mux
+from amaranth.hdl import Module, Signal, Mux, Cat
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -59,7 +59,8 @@ class BeamAssigner(wiring.Component):
     beam : In(16)
         The beam's code.
     az_addr : Out(range(rows)), az_data : In(16)
-        A read port on the rows' azimuth codes, its data a clock after the address.
+        A read port on the rows' azimuth codes, its data READ_LATENCY clocks
+        after the address (a block RAM's output register).
     event : Out(stream.Signature(follow_event_layout(rows, channels)))
     held : Out(range(rows + 1))
         Rows holding a channel.
@@ -69,6 +70,9 @@ class BeamAssigner(wiring.Component):
     seeding : Out(1)
         From ``start`` until the rows held at its beam have entered.
     """
+
+    #: Clocks from ``az_addr`` to ``az_data``.
+    READ_LATENCY = 2
 
     def __init__(self, *, rows: int, channels: int):
         for name, value in (("rows", rows), ("channels", channels)):
@@ -92,10 +96,14 @@ class BeamAssigner(wiring.Component):
         next_in, next_out = Signal(range(rows)), Signal(range(rows))
         ch_in, ch_out = Signal(range(C)), Signal(range(C))
         az_in, az_out = Signal(AZIMUTH_BITS), Signal(AZIMUTH_BITS)
-        # the seed's search
-        addr, got, got_row = Signal(range(rows + 1)), Signal(), Signal(range(rows))
-        best_key, best_row = Signal(AZIMUTH_BITS), Signal(range(rows))
-        key = _mod(self.az_data + s.entry_off - pos - 1)
+        # the seed's search: a row's address, its word READ_LATENCY clocks
+        # later, its key in a register, then the compare (each a stage)
+        addr = Signal(range(rows + 1))
+        lat = self.READ_LATENCY
+        valid = [Signal(name=f"seed_valid{j}") for j in range(lat + 2)]
+        row_of = [Signal(range(rows), name=f"seed_row{j}") for j in range(lat + 2)]
+        best_key, best_row, key = Signal(AZIMUTH_BITS), Signal(range(rows)), Signal(AZIMUTH_BITS)
+        first = Signal()
         # a pass's comparisons (registered in EVAL, decided in DECIDE)
         d_in, d_out, span, past = (Signal(AZIMUTH_BITS) for _ in range(4))
         can_in = (d_in < span) & (self.held < s.rows)
@@ -109,30 +117,37 @@ class BeamAssigner(wiring.Component):
             with m.State("WAIT"):
                 with m.If(start_due):
                     m.d.sync += [start_due.eq(self.start), target.eq(self.beam), pos.eq(self.beam - s.width),
-                                 addr.eq(0), got.eq(0), self.held.eq(0), ch_in.eq(0), ch_out.eq(0),
-                                 self.overrun.eq(0), self.seeding.eq(1)]
+                                 addr.eq(0), self.held.eq(0), ch_in.eq(0), ch_out.eq(0), first.eq(1),
+                                 self.overrun.eq(0), self.seeding.eq(1), *(v.eq(0) for v in valid)]
                     m.next = "SEED"
                 with m.Elif(self.beam != pos):
                     m.d.sync += target.eq(self.beam)
                     m.next = "EVAL"
             with m.State("SEED"):
                 m.d.comb += self.az_addr.eq(addr)
-                m.d.sync += [got.eq(addr < s.rows), got_row.eq(addr)]
+                m.d.sync += [valid[0].eq(addr < s.rows), row_of[0].eq(addr)]
+                m.d.sync += [x.eq(y) for x, y in zip(valid[1:], valid[:-1])]
+                m.d.sync += [x.eq(y) for x, y in zip(row_of[1:], row_of[:-1])]
                 with m.If(addr < s.rows):
                     m.d.sync += addr.eq(addr + 1)
-                with m.If(got & ((got_row == 0) | (key < best_key))):
-                    m.d.sync += [best_key.eq(key), best_row.eq(got_row)]
-                with m.If(~(addr < s.rows) & ~got):
+                # the word of valid[lat - 1]'s row is here: its key into a register
+                m.d.sync += key.eq(_mod(self.az_data + s.entry_off - pos - 1))
+                with m.If(valid[lat] & (first | (key < best_key))):
+                    m.d.sync += [best_key.eq(key), best_row.eq(row_of[lat]), first.eq(0)]
+                with m.If(~(addr < s.rows) & ~Cat(*valid).any()):
                     m.d.sync += [next_in.eq(Mux(s.rows == 0, 0, best_row)), next_out.eq(Mux(s.rows == 0, 0, best_row))]
                     m.next = "FETCH_IN"
+            # the next entry's and the next exit's azimuths, READ_LATENCY clocks each
             with m.State("FETCH_IN"):
                 m.d.comb += self.az_addr.eq(next_in)
                 m.next = "FETCH_OUT"
             with m.State("FETCH_OUT"):
                 m.d.comb += self.az_addr.eq(next_out)
+                m.next = "FETCH_A"
+            with m.State("FETCH_A"):
                 m.d.sync += az_in.eq(self.az_data)
-                m.next = "FETCH_END"
-            with m.State("FETCH_END"):
+                m.next = "FETCH_B"
+            with m.State("FETCH_B"):
                 m.d.sync += az_out.eq(self.az_data)
                 m.next = "EVAL"
             with m.State("EVAL"):

@@ -13,6 +13,7 @@ from rast.model.contract.regmap import FOLLOW_SWITCH_STEP_BITS, RegisterMap
 from ..registers import BusSignature
 from .assigner import follow_event_layout
 from .phase_at_step import PhaseAtStep
+from .table import TurbineTable
 
 __all__ = ["FollowLoader", "ROW_LAYOUT"]
 
@@ -23,6 +24,7 @@ ROW_LAYOUT = data.StructLayout(dict(FOLLOW_ROW_FIELDS))
 ENTRY_WRITES = (("AZIMUTH", True), ("GAIN", True), ("DELAY", True), ("APPLY", False), ("LENGTH", True),
                 ("PHASE_INC", True), ("BASE", True), ("START", True), ("FOLLOW_SWITCH", False))
 assert ENTRY_WRITES[LOAD_WRITES_BEFORE - 1][0] == "PHASE_INC"
+assert TurbineTable.latency == 2            # (READ, then ROW)
 
 
 class FollowLoader(wiring.Component):
@@ -44,7 +46,7 @@ class FollowLoader(wiring.Component):
     -------
     event : In(stream.Signature(follow_event_layout(rows, C)))
     row_addr : Out(range(rows)), row_data : In(128)
-        The table's row read port (a clock).
+        The table's row read port (two clocks: :attr:`TurbineTable.latency`).
     scene : In(48), steps_lo : In(8)
         The scene's step number, and the low bits of the step number
         FOLLOW_SWITCH names, of the steps accepted before this clock.
@@ -94,7 +96,18 @@ class FollowLoader(wiring.Component):
         }
         addrs = Array(self._address(name, ev.channel, own) for name, own in ENTRY_WRITES)
         datas = Array(values[name] for name, _ in ENTRY_WRITES)
+        # the bus from registers: each write's address and data loaded a clock
+        # before it is offered (the 9:1 selection beside the register file's
+        # input register would be a long path into it)
         bus = self.bus
+        addr_q, data_q, stb_q = Signal.like(bus.addr), Signal.like(bus.w_data), Signal()
+        m.d.comb += [bus.addr.eq(addr_q), bus.w_data.eq(data_q), bus.w_stb.eq(stb_q)]
+        taken = stb_q & bus.ready
+        with m.If(taken):
+            m.d.sync += stb_q.eq(0)
+
+        def offer(addr, value):
+            m.d.sync += [addr_q.eq(addr), data_q.eq(value), stb_q.eq(1)]
 
         def retarget():
             """The switch's step ``lead`` steps on, and the phase for it plus the refill."""
@@ -102,40 +115,38 @@ class FollowLoader(wiring.Component):
             m.d.comb += [phase.start.eq(1), phase.step.eq(self.scene + self.lead + c.refill_samples),
                          phase.inc.eq(row.phase_inc), phase.length.eq(row.length)]
 
+        last = k == len(ENTRY_WRITES) - 1
         with m.FSM():
             with m.State("IDLE"):
                 m.d.comb += self.event.ready.eq(1)
                 with m.If(self.event.valid):
                     m.d.sync += [ev.eq(self.event.payload), k.eq(0)]
                     m.d.comb += self.row_addr.eq(self.event.payload.row)
-                    m.next = "DISPATCH"
-            with m.State("DISPATCH"):
+                    m.next = "READ"
+            with m.State("READ"):                      # (the table's word: two clocks)
+                m.next = "ROW"
+            with m.State("ROW"):
                 m.d.sync += row.eq(self.row_data)
                 m.next = "DECIDE"
             with m.State("DECIDE"):
                 with m.If(ev.enter):
                     retarget()
-                    m.next = "BEFORE"
+                    m.next = "WRITE"
                 with m.Else():
+                    offer(self._address("GAIN", ev.channel, True), 0)
                     m.next = "LEAVE"
-            with m.State("BEFORE"):
-                m.d.comb += [bus.addr.eq(addrs[k]), bus.w_data.eq(datas[k]), bus.w_stb.eq(1)]
-                with m.If(bus.ready):
+            with m.State("WRITE"):
+                with m.If(taken):
                     m.d.sync += k.eq(k + 1)
-                    with m.If(k == LOAD_WRITES_BEFORE - 1):
-                        m.next = "AFTER"
-            with m.State("AFTER"):
-                last = k == len(ENTRY_WRITES) - 1
-                with m.If(have_phase & last & ((ahead < min_ahead) | (ahead >= bits // 2))):
-                    m.d.comb += self.late.eq(1)
-                    m.d.sync += k.eq(LOAD_WRITES_BEFORE)
-                    retarget()
-                with m.Elif(have_phase):
-                    m.d.comb += [bus.addr.eq(addrs[k]), bus.w_data.eq(datas[k]), bus.w_stb.eq(1)]
-                    with m.If(bus.ready):
-                        m.d.sync += k.eq(k + 1)
-                        with m.If(last):
-                            m.next = "SWITCH"
+                    with m.If(last):
+                        m.next = "SWITCH"
+                with m.Elif(~stb_q & ((k < LOAD_WRITES_BEFORE) | have_phase)):
+                    with m.If(last & ((ahead < min_ahead) | (ahead >= bits // 2))):
+                        m.d.comb += self.late.eq(1)     # too near, or past: the phase for a later step
+                        m.d.sync += k.eq(LOAD_WRITES_BEFORE)
+                        retarget()
+                    with m.Else():
+                        offer(addrs[k], datas[k])
             with m.State("SWITCH"):
                 # the switch has fired once the step named is past
                 passed = Signal(FOLLOW_SWITCH_STEP_BITS)
@@ -143,8 +154,6 @@ class FollowLoader(wiring.Component):
                 with m.If((passed != 0) & (passed < bits // 2)):
                     m.next = "IDLE"
             with m.State("LEAVE"):
-                m.d.comb += [bus.addr.eq(self._address("GAIN", ev.channel, True)), bus.w_data.eq(0),
-                             bus.w_stb.eq(1)]
-                with m.If(bus.ready):
+                with m.If(taken):
                     m.next = "IDLE"
         return m
