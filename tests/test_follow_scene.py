@@ -10,16 +10,11 @@ import pytest
 
 from rast.cli import main
 
+from test_atc_scale import _command_in_header
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 SCENE = EXAMPLES / "farm_follow.toml"
 LAYOUT = EXAMPLES / "farm_layout_follow.csv"
-
-
-def _command_in_header(path):
-    text = " ".join(line.lstrip("#").replace("\\", " ") for line in path.read_text().splitlines()
-                    if line.startswith("#"))
-    words = text.split("rast farm ", 1)[1].split()
-    return words[1:words.index("--out")]
 
 
 def test_the_scene_regenerates_identically(tmp_path, capsys):
