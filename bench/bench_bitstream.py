@@ -39,10 +39,10 @@ LADDER = {
                    "(M = 8, 8 pipelines), 65,536-word pool", dict()),
     "n64s_20_160": ("the default with the antenna scan (`--scan`): ACP/ARP inputs, per-channel AZIMUTH, "
                     "a pattern table and gain multiplier per pipeline", dict(scan=True)),
-    "f64_2p5_160": ("channels that follow the beam (`--scan --follow 2048 --sdram`): 64 FIR channels at "
-                    "2.5 MS/s on a 160 MHz fabric (M = 64, one pipeline), streams in SDRAM, a 2,048-row "
+    "f64_2p5_160": ("channels that follow the beam (`--scan --follow 4096 --sdram`): 64 FIR channels at "
+                    "2.5 MS/s on a 160 MHz fabric (M = 64, one pipeline), streams in SDRAM, a 4,096-row "
                     "turbine table (docs/beam_following.md)",
-                    dict(sample_rate_mhz=2.5, pool="sdram", scan=True, follow_rows=2048)),
+                    dict(sample_rate_mhz=2.5, pool="sdram", scan=True, follow_rows=4096)),
     "n64_20_200": ("64 FIR channels at 20 MS/s on a 200 MHz fabric (M = 10, 7 pipelines), 81,920-word "
                    "pool: the withdrawn target", dict(clock_mhz=200, pool_words=81920)),
     "n16_100_200": ("wide band: 16 FIR channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",

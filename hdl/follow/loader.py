@@ -81,12 +81,18 @@ class FollowLoader(wiring.Component):
         target = Signal(FOLLOW_SWITCH_STEP_BITS)
         k = Signal(range(len(ENTRY_WRITES)))
         have_phase = Signal()
-        m.d.sync += have_phase.eq(Mux(phase.start, 0, have_phase | phase.done))
+        m.d.sync += have_phase.eq(Mux(phase.start, 0, have_phase | phase.done))   # (start: below)
         bits = 1 << FOLLOW_SWITCH_STEP_BITS
+        # the switch's write lands REGISTER_STAGING clocks after it is taken;
+        # whether the step named is that far ahead, in a register (a clock
+        # old: one step more asked), not in the clock that offers the write
+        # (the subtraction, the compares and the retiming in one clock were
+        # the first following build's latest path, 10.9 ns)
+        min_ahead = -(-REGISTER_STAGING // c.slots) + 2
         ahead = Signal(FOLLOW_SWITCH_STEP_BITS)
+        too_near = Signal()
         m.d.comb += ahead.eq(target - self.steps_lo)
-        # the switch's write lands REGISTER_STAGING clocks after it is taken
-        min_ahead = -(-REGISTER_STAGING // c.slots) + 1
+        m.d.sync += too_near.eq((ahead < min_ahead) | (ahead >= bits // 2))
         values = {
             "AZIMUTH": row.azimuth, "GAIN": row.gain, "DELAY": row.delay, "APPLY": Const(1, 32),
             "LENGTH": row.length, "PHASE_INC": row.phase_inc,
@@ -109,11 +115,16 @@ class FollowLoader(wiring.Component):
         def offer(addr, value):
             m.d.sync += [addr_q.eq(addr), data_q.eq(value), stb_q.eq(1)]
 
+        # the phase's product started from registers, a clock after its step is set
+        go, play_step = Signal(), Signal(FOLLOW_STEP_BITS)
+        m.d.sync += go.eq(0)
+        m.d.comb += [phase.start.eq(go), phase.step.eq(play_step), phase.inc.eq(row.phase_inc),
+                     phase.length.eq(row.length)]
+
         def retarget():
             """The switch's step ``lead`` steps on, and the phase for it plus the refill."""
-            m.d.sync += target.eq(self.steps_lo + self.lead)
-            m.d.comb += [phase.start.eq(1), phase.step.eq(self.scene + self.lead + c.refill_samples),
-                         phase.inc.eq(row.phase_inc), phase.length.eq(row.length)]
+            m.d.sync += [target.eq(self.steps_lo + self.lead), go.eq(1),
+                         play_step.eq(self.scene + self.lead + c.refill_samples)]
 
         last = k == len(ENTRY_WRITES) - 1
         with m.FSM():
@@ -140,8 +151,8 @@ class FollowLoader(wiring.Component):
                     m.d.sync += k.eq(k + 1)
                     with m.If(last):
                         m.next = "SWITCH"
-                with m.Elif(~stb_q & ((k < LOAD_WRITES_BEFORE) | have_phase)):
-                    with m.If(last & ((ahead < min_ahead) | (ahead >= bits // 2))):
+                with m.Elif(~stb_q & ~go & ((k < LOAD_WRITES_BEFORE) | have_phase)):
+                    with m.If(last & too_near):
                         m.d.comb += self.late.eq(1)     # too near, or past: the phase for a later step
                         m.d.sync += k.eq(LOAD_WRITES_BEFORE)
                         retarget()
