@@ -100,8 +100,8 @@ class BeamAssigner(wiring.Component):
         # later, its key in a register, then the compare (each a stage)
         addr = Signal(range(rows + 1))
         lat = self.READ_LATENCY
-        valid = [Signal(name=f"seed_valid{j}") for j in range(lat + 2)]
-        row_of = [Signal(range(rows), name=f"seed_row{j}") for j in range(lat + 2)]
+        valid = [Signal(name=f"seed_valid{j}") for j in range(lat + 1)]
+        row_of = [Signal(range(rows), name=f"seed_row{j}") for j in range(lat + 1)]
         best_key, best_row, key = Signal(AZIMUTH_BITS), Signal(range(rows)), Signal(AZIMUTH_BITS)
         first = Signal()
         # a pass's comparisons (registered in EVAL, decided in DECIDE)
