@@ -272,7 +272,8 @@ class RegisterFile(wiring.Component):
                 "pattern_w_data": Out(PATTERN_WIDTH),
                 "scan_beam": In(AZIMUTH_BITS), "scan_lost": In(1), "scan_learned": In(1),
                 "scan_per_rev": In(17)} if c.scan else {}),
-            **({"step_lo": In(FOLLOW_SWITCH_STEP_BITS), "land_tick": In(1)} if c.start_frac else {}),
+            **({"step_lo": In(FOLLOW_SWITCH_STEP_BITS), "land_tick": In(1), "land_step": In(1)}
+               if c.start_frac else {}),
             **({"follow": Out(follow_settings_layout(c.follow_rows)), "follow_on": Out(1), "follow_start": Out(1),
                 "table_w_en": Out(1), "table_w_addr": Out(range(FOLLOW_ROW_WORDS * c.follow_rows)),
                 "table_w_data": Out(32), "follow_late_set": In(1), "follow_overrun_set": In(1)}
@@ -728,29 +729,44 @@ class RegisterFile(wiring.Component):
 
     def _follow_switch(self, env):
         """FOLLOW_SWITCH (a block with START): the channel it names switches by
-        force, as a disabling CTRL write with a SWAP taken would make it, in the
-        landing clock whose step number (``step_lo``, its low bits) is the one
-        named: the write's own landing, or a later ``land_tick``. One is held
-        at a time; a write replaces it."""
-        env.follow_fire = env.follow_ch = None
+        force, as a disabling CTRL write with a SWAP taken would make it, in
+        the first landing clock after the write's whose step number
+        (``step_lo``, its low bits) is the one named and follows the write's
+        own step. One is held at a time; a write replaces it. From M = 2 the
+        match is made a clock ahead and the channel decoded at the write's
+        landing, so each channel's flags take it from registers (the match
+        and the channel's decode in the landing clock, into every channel's
+        flags, were the first following build's latest path, 10.8 ns)."""
+        env.follow_fire = env.follow_switch_late = None
         if not env.c.start_frac:
             return
-        m, rmap = env.m, env.rmap
+        m, rmap, N = env.m, env.rmap, env.N
         r = rmap.reg("FOLLOW_SWITCH")
         landed, data = env.strobe[r.addr], env.land_data[None]
         ch_f, step_f = r.field("channel"), r.field("step")
         channel, step = data[ch_f.lsb:ch_f.lsb + ch_f.width], data[step_f.lsb:step_f.lsb + step_f.width]
-        held = Signal(name="follow_held")
-        held_ch, held_step = Signal(ch_f.width, name="follow_held_ch"), Signal(step_f.width, name="follow_held_step")
-        now = landed & (step == self.step_lo)
-        later = held & self.land_tick & (held_step == self.step_lo) & ~landed
-        fire, fire_ch = Signal(name="follow_fire"), Signal(ch_f.width, name="follow_fire_ch")
-        m.d.comb += [fire.eq(now | later), fire_ch.eq(Mux(landed, channel, held_ch))]
+        held, advanced = Signal(name="follow_held"), Signal(name="follow_advanced")
+        held_step = Signal(step_f.width, name="follow_held_step")
+        held_of = Signal(N, name="follow_held_of")            # the channel, one-hot
         with m.If(landed):
-            m.d.sync += [held.eq(~now), held_ch.eq(channel), held_step.eq(step)]
-        with m.Elif(later):
+            # (a step in the landing's own period counts as after the write's)
+            m.d.sync += [held.eq(1), held_step.eq(step), advanced.eq(self.land_step),
+                         held_of.eq(Cat(channel == l for l in range(N)))]
+        with m.Elif(self.land_step):
+            m.d.sync += advanced.eq(1)
+        due = held & advanced & (held_step == self.step_lo)
+        if env.c.slots >= 2:          # nothing it reads changes between two landing clocks
+            due_q = Signal(name="follow_due")
+            m.d.sync += due_q.eq(due)
+            due = due_q
+        fire = Signal(name="follow_fire")
+        m.d.comb += fire.eq(self.land_tick & due & ~landed)
+        with m.If(fire):
             m.d.sync += held.eq(0)
-        env.follow_fire, env.follow_ch = fire, fire_ch
+        env.follow_fire = [held_of[l] & fire for l in range(N)]
+        # a write naming a step half the counter's span or more after its own
+        # named one already past: it would switch a counter's span late (STATUS.late)
+        env.follow_switch_late = landed & (step - self.step_lo - 1)[step_f.width - 1]
 
     def _commands(self, env):
         """Per channel: what the engine reads of it from flip-flops, the applied
@@ -778,7 +794,7 @@ class RegisterFile(wiring.Component):
                 with m.If(swap):
                     m.d.sync += rejected[l].eq(~match_of[l])
             if env.follow_fire is not None:
-                with m.Elif(env.follow_fire & (env.follow_ch == l)):
+                with m.Elif(env.follow_fire[l]):
                     m.d.sync += [rg.force_swap.eq(1), rg.force_pending.eq(0), rg.swap_req.eq(0)]
             with m.Elif(self.cmd_ack[l]):
                 m.d.sync += [rg.force_swap.eq(0), rg.force_pending.eq(0), rg.swap_req.eq(0)]
@@ -883,7 +899,8 @@ class RegisterFile(wiring.Component):
         st = env.stage[self._status_delay]
         clear = st.valid & ~st.write & (st.addr == rmap.reg("STATUS").addr)
         env.follow_late, env.follow_overrun = Signal(name="follow_late"), Signal(name="follow_overrun")
-        m.d.sync += [env.follow_late.eq(Mux(clear, 0, env.follow_late) | self.follow_late_set),
+        m.d.sync += [env.follow_late.eq(Mux(clear, 0, env.follow_late) | self.follow_late_set
+                                        | env.follow_switch_late),
                      env.follow_overrun.eq(Mux(clear, 0, env.follow_overrun) | self.follow_overrun_set)]
 
     def _read_back(self, env):

@@ -361,7 +361,8 @@ class WindFarmReplay(wiring.Component):
             steps = Signal(FOLLOW_SWITCH_STEP_BITS, name="steps_lo")
             with m.If(env.start & env.stepped):
                 m.d.sync += steps.eq(steps + 1)
-            m.d.comb += [regs.step_lo.eq(steps), regs.land_tick.eq(env.start)]
+            m.d.comb += [regs.step_lo.eq(steps), regs.land_tick.eq(env.start),
+                         regs.land_step.eq(env.start & env.stepped)]
             env.steps_lo = steps
         env.__dict__.update(V=V, regs=regs, sdram=sdram, w_held=w_held, w_held_addr=w_held_addr,
                             w_held_data=w_held_data, w_lost=w_lost)

@@ -81,9 +81,11 @@ def scene_start(contract: ReplayContract, done) -> int:
 def follow_reference(contract: ReplayContract, rows, done, xi, xq):
     """The output of the model with one channel per turbine: the block's
     global writes (streams, pattern, scan; not its following's) at the steps
-    they landed, and at the scene's start every turbine's channel switched in
+    they landed, and from the scene's start each turbine's channel switched
+    in (FOLLOW_SWITCH, one at a time: turbine l at the scene's step 2l + 1)
     at the phase it has when the switch's refill is over (its stream from
-    step 0 of the scene), enabled. Returns ``(yi, yq)``."""
+    step 0 of the scene), enabled. The scene must leave every turbine out of
+    the window for its first 2·turbines + refill steps. Returns ``(yi, yq)``."""
     k0 = scene_start(contract, done)
     rmap = register_map(contract)
     ref = reference_contract(contract, len(rows))
@@ -92,13 +94,14 @@ def follow_reference(contract: ReplayContract, rows, done, xi, xq):
               and rref.by_addr(d[2]) is not None and not rmap.by_addr(d[2]).name.startswith(("FOLLOW", "TABLE"))]
     loads = []
     for l, r in enumerate(rows):
-        phase = follow_phase(ref.refill_samples, r.phase_inc, r.length)
+        at, switch = k0 + 2 * l, k0 + 2 * l + 1        # (one switch held at a time: each fires first)
+        phase = follow_phase(switch - k0 + ref.refill_samples, r.phase_inc, r.length)
         for name, value in (("AZIMUTH", r.azimuth), ("GAIN", r.gain), ("DELAY", r.delay), ("LENGTH", r.length),
                             ("PHASE_INC", r.phase_inc), ("BASE", r.base + (phase >> PHASE_FRAC_BITS)),
                             ("START", phase & 0xFFFFFFFF)):
-            loads.append((k0, "w", rref.addr(name, l), value))
-        loads += [(k0, "w", rref.addr("FOLLOW_SWITCH"), l | (k0 & 0xFF) << 16),
-                  (k0, "w", rref.addr("CTRL", l), CTRL_ENABLE)]
-    loads.append((k0, "w", rref.addr("APPLY"), 1))
+            loads.append((at, "w", rref.addr(name, l), value))
+        loads += [(at, "w", rref.addr("FOLLOW_SWITCH"), l | (switch & 0xFFF) << 16),
+                  (at, "w", rref.addr("CTRL", l), CTRL_ENABLE)]
+    loads.append((k0 + 2 * (len(rows) - 1), "w", rref.addr("APPLY"), 1))        # (every DELAY in)
     yi, yq, _, _ = model_replay(ref, [], xi, xq, sorted(shared + loads, key=lambda d: d[0]))
     return yi, yq

@@ -31,8 +31,9 @@ SCAN = dict(mode="free", rpm=RATE * 60 / AZIMUTH_CODES, start_deg=0.0, acp_per_r
 def test_a_revolution_of_following_channels_is_bit_exact_in_verilator():
     c = ReplayContract(**KW)
     rng = np.random.default_rng(21)
-    # twelve turbines all round, a farm of four close together among them
-    azimuths = sorted([int(a) for a in rng.integers(0, AZIMUTH_CODES, 8)] + [30000 + 90 * k for k in range(4)])
+    # twelve turbines all round (each a few degrees from the fixed bearings), a farm of four close together
+    azimuths = sorted([b + int(rng.integers(-1500, 1500)) for b in (2000, 9000, 17000, 24000, 38000, 45000,
+                                                                    52000, 60000)] + [30000 + 90 * k for k in range(4)])
     scan = AntennaScan(**SCAN)
     window = follow_pattern(scan, pattern_words(scan))
     guard = follow_guard_codes(scan, c, c.channels)

@@ -10,6 +10,7 @@ import pytest
 from rast.model.contract.datapath import phase_sequence
 from rast.model.contract.fixedpoint import ReplayContract
 from rast.model.contract.follow import (FollowRow, Follower, check_follow, follow_guard_codes, follow_lead_steps,
+                                        follow_load_steps,
                                         follow_occupancy,
                                         follow_pattern, follow_phase, pack_rows, unpack_rows)
 from rast.model.contract.scan import AZIMUTH_CODES, pattern_lookup, pattern_words
@@ -95,10 +96,9 @@ def test_the_assignment_follows_the_closed_form_and_never_takes_a_channel_twice(
     window = _window(scan)
     contract = ReplayContract(channels=64, slots=8, sample_rate_hz=20_000_000)
     guard = follow_guard_codes(scan, contract, 64)
-    # 64 loads of 19 steps and a refill of 157 at 20 MS/s, 12.5 rpm: 0.94 codes
-    loads = 64 * follow_lead_steps(8) + contract.refill_samples
-    assert guard == step + math.ceil(loads * 12.5 / 60 * AZIMUTH_CODES / 20e6) + 1 == step + 2
-    assert guard >= step + 1
+    # 64 loads of 21 steps and a refill of 157 at 20 MS/s, 12.5 rpm: 1.07 codes
+    loads = 64 * follow_load_steps(8) + contract.refill_samples
+    assert guard == step + math.ceil(loads * 12.5 / 60 * AZIMUTH_CODES / 20e6) + 1 == step + 3
     az = np.sort(np.concatenate([rng.integers(0, AZIMUTH_CODES, 400), np.full(5, 65530), np.full(5, 3)]))
     channels = follow_occupancy(az, window, guard).channels
     follower = Follower(az, window, guard, channels)

@@ -108,10 +108,10 @@ def test_the_loader_reads_start_frac_from_config():
                                                          ("linear", 1, (1, 0, 1, 1)), ("hold", 8, (1,))])
 def test_a_switch_at_a_named_step_bit_exact(interpolation, slots, valid):
     """FOLLOW_SWITCH: channels switched by force (enabled or not, no SWAP
-    check) at a step named by its low 8 bits, some steps after the write,
-    at the write's own step, and one replaced before its step; with gaps in
-    the input: bit-exact with the model, and the switch is at its step (a
-    step earlier or later plays otherwise)."""
+    check) at a step named by its low 12 bits, some steps after the write,
+    the very next step, and one replaced before its step; with gaps in the
+    input: bit-exact with the model, and the switch is at its step (a step
+    earlier or later plays otherwise)."""
     rng = np.random.default_rng(slots * 7 + len(valid))
     inits, used = _inits(rng, 4, [24, 30, 20, 26])
     dut = WindFarmReplay(4, slots=slots, pool_words=512, max_delay=20, max_tap=6, interpolation=interpolation,
@@ -120,7 +120,7 @@ def test_a_switch_at_a_named_step_bit_exact(interpolation, slots, valid):
     per_access = -(-take_interval(slots) // slots) * len(valid)
     top = dut.contract.max_phase_increment
     ops, at, base, plan = [], 10, used, []
-    for l, lead in ((0, 37), (1, 0), (2, 200), (3, 90), (2, 12)):
+    for l, lead in ((0, 37), (1, 1), (2, 200), (3, 90), (2, 12)):
         n = int(rng.integers(24, 40))
         words = pack_iq(rng.integers(-20000, 20000, n), rng.integers(-20000, 20000, n))
         ops += [(at, "w", rmap.addr("STREAM_ADDR"), base)]
@@ -130,7 +130,7 @@ def test_a_switch_at_a_named_step_bit_exact(interpolation, slots, valid):
                 (at, "w", rmap.addr("START", l), int(rng.integers(0, 1 << 32)))]
         at += (n + 6) * per_access + 4
         plan.append((at, l, lead))
-        ops.append((at, "w", rmap.addr("FOLLOW_SWITCH"), l | ((at + lead) & 0xFF) << 16))
+        ops.append((at, "w", rmap.addr("FOLLOW_SWITCH"), l | ((at + lead) & 0xFFF) << 16))
         at += 2 * per_access + (lead if lead < 100 else 10) + 20       # channel 2's first switch is replaced
         base += n
     T = at + 200
@@ -144,7 +144,7 @@ def test_a_switch_at_a_named_step_bit_exact(interpolation, slots, valid):
         for shift in (-1, 1):
             moved = [d if d is not switch_writes[k] else (d[0], "w", d[2], d[3] + (shift << 16) & 0xFFFFFFFF)
                      for d in done]
-            if plan[k][2] >= 100 or (plan[k][2] == 0 and shift == -1):
-                continue                               # (replaced before its step; 255 steps ahead: past the end)
+            if plan[k][2] >= 100 or plan[k][2] + shift < 1:
+                continue                               # (replaced before its step; the write's own step: 256 on)
             si, sq, _, _ = model_replay(dut.contract, inits, xi, xq, moved, dut.init_common_delay)
             assert (si != hi).any() or (sq != hq).any(), (k, shift)

@@ -6,9 +6,9 @@ from amaranth.hdl import Module, Signal, Mux, Const, Array
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from rast.model.contract.fixedpoint import PHASE_FRAC_BITS, REGISTER_STAGING
+from rast.model.contract.fixedpoint import PHASE_FRAC_BITS
 from rast.model.contract.follow import (FOLLOW_ROW_FIELDS, FOLLOW_ROW_WORDS, FOLLOW_STEP_BITS,
-                                        LOAD_WRITES_BEFORE, follow_lead_steps)
+                                        LOAD_WRITES_BEFORE, follow_lead_steps, follow_switch_margin_steps)
 from rast.model.contract.regmap import FOLLOW_SWITCH_STEP_BITS, RegisterMap
 from ..registers import BusSignature
 from .assigner import follow_event_layout
@@ -88,7 +88,7 @@ class FollowLoader(wiring.Component):
         # old: one step more asked), not in the clock that offers the write
         # (the subtraction, the compares and the retiming in one clock were
         # the first following build's latest path, 10.9 ns)
-        min_ahead = -(-REGISTER_STAGING // c.slots) + 2
+        min_ahead = follow_switch_margin_steps(c.slots)
         ahead = Signal(FOLLOW_SWITCH_STEP_BITS)
         too_near = Signal()
         m.d.comb += ahead.eq(target - self.steps_lo)

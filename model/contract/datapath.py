@@ -336,15 +336,10 @@ class ReplayModel:
         elif r.name == "START":
             self.start_next[l] = fv("frac")
         elif r.name == "FOLLOW_SWITCH":
-            # the first step from this one whose number has the low bits named
+            # the first step after this one whose number has the low bits named
             ch, bits = fv("channel"), 1 << r.field("step").width
-            step = self.steps + (fv("step") - self.steps) % bits
-            self.scheduled = None
-            if ch < self.c.channels:
-                if step == self.steps:
-                    self._swap(ch)
-                else:
-                    self.scheduled = (ch, step)
+            step = self.steps + 1 + (fv("step") - self.steps - 1) % bits
+            self.scheduled = (ch, step) if ch < self.c.channels else None
         elif r.name == "DELAY":
             self.delay_next[l] = fv("delay")
         elif r.name == "COMMON_DELAY":

@@ -48,7 +48,7 @@ import numpy as np
 from rast.model.contract.fixedpoint import GAIN_WIDTH, PHASE_FRAC_BITS, REGISTER_STAGING, take_interval
 from rast.model.contract.scan import AZIMUTH_CODES, PATTERN_ENTRIES, PatternWords
 
-__all__ = ["FOLLOW_STEP_BITS", "PHASE_CLOCKS", "follow_lead_steps", "FOLLOW_ROW_FIELDS", "FOLLOW_ROW_WORDS", "FollowRow", "pack_rows", "unpack_rows", "FollowWindow",
+__all__ = ["FOLLOW_STEP_BITS", "PHASE_CLOCKS", "follow_switch_margin_steps", "follow_lead_steps", "follow_load_steps", "FOLLOW_ROW_FIELDS", "FOLLOW_ROW_WORDS", "FollowRow", "pack_rows", "unpack_rows", "FollowWindow",
            "follow_pattern", "follow_guard_codes", "FollowOccupancy", "rows_held", "follow_occupancy", "check_follow",
            "follow_phase", "Follower", "FollowEvent"]
 
@@ -62,14 +62,24 @@ PHASE_CLOCKS = 2 * FOLLOW_STEP_BITS
 LOAD_WRITES_BEFORE, LOAD_WRITES_AFTER = 6, 3
 
 
+def follow_switch_margin_steps(slots: int) -> int:
+    """Steps ahead the step a load's FOLLOW_SWITCH names must be when the
+    loader offers the write: the bus may keep it a ``take_interval``, it lands
+    REGISTER_STAGING clocks later, and two steps spare."""
+    return -(-(take_interval(slots) + REGISTER_STAGING) // slots) + 2
+
+
 def follow_lead_steps(slots: int) -> int:
-    """Steps from the loader's taking an entry to the step its switch names:
-    the phase's product or the first writes (taken one a ``take_interval``),
-    then the last three writes and their staging, with a period of margin
-    either side. Below 2**FOLLOW_SWITCH_STEP_BITS at every M."""
-    ti = take_interval(slots)
-    clocks = max(PHASE_CLOCKS, LOAD_WRITES_BEFORE * ti) + LOAD_WRITES_AFTER * ti + REGISTER_STAGING + 2 * slots
-    return -(-clocks // slots)
+    """Steps from the loader's deciding an entry to the step its switch
+    names: the phase's product (a clock to start it) or the first writes
+    (each offered a clock after the last was taken, a ``take_interval``
+    apart), then BASE and START, and the switch's margin
+    (:func:`follow_switch_margin_steps`), a step spare. Under half the span
+    of FOLLOW_SWITCH's step bits at every M."""
+    ti = take_interval(slots) + 1
+    clocks = max(PHASE_CLOCKS + 2, LOAD_WRITES_BEFORE * ti) + (LOAD_WRITES_AFTER - 1) * ti
+    return -(-clocks // slots) + follow_switch_margin_steps(slots) + 1
+
 
 #: A row's fields, (name, width) from bit 0 up; 128 bits in all.
 FOLLOW_ROW_FIELDS = (("azimuth", 16), ("gain", GAIN_WIDTH), ("delay", 16), ("base", 23), ("length", 24),
@@ -154,10 +164,17 @@ def follow_pattern(scan, table: PatternWords) -> FollowWindow:
                         PatternWords(words, 0, shift))
 
 
+def follow_load_steps(slots: int) -> int:
+    """Steps an entry takes the loader, at most, beside its switch's lead:
+    reading its row and waiting for the bus's first take, and an exit's
+    write (GAIN 0) between two entries, one ``take_interval`` each."""
+    return follow_lead_steps(slots) + -(-(2 * take_interval(slots) + 8) // slots)
+
+
 def follow_guard_codes(scan, contract, loads: int) -> int:
     """The guard (codes): the beam's largest step, plus the codes it turns
     while ``loads`` loads are made one after another (each
-    :func:`follow_lead_steps`, the loader waiting for its switch) and the
+    :func:`follow_load_steps`, the loader waiting for its switch) and the
     last one's refill (``contract.refill_samples``, muted), plus one.
     Following the radar with ``acp_per_rev = "auto"`` the step of 4096 ACPs
     is assumed (a radar with fewer sets its count: a load that lands late is
@@ -170,7 +187,7 @@ def follow_guard_codes(scan, contract, loads: int) -> int:
     if contract.sample_rate_hz <= 0:
         raise ValueError("the guard needs the build's sample rate (sample_rate_hz)")
     codes_per_sample = abs(scan.rpm) / 60.0 * AZIMUTH_CODES / contract.sample_rate_hz
-    steps = loads * follow_lead_steps(contract.slots) + contract.refill_samples
+    steps = loads * follow_load_steps(contract.slots) + contract.refill_samples
     return step + math.ceil(steps * codes_per_sample) + 1
 
 

@@ -43,8 +43,8 @@ SCAN_CHANNEL_STRIDE = 16
 #: SCAN_CTRL's command bit: restart the beam (free: at SCAN_START; acp: the
 #: count, the code and what was learned cleared).
 SCAN_RESTART = 1 << 31
-#: Low bits of the step number FOLLOW_SWITCH names (a switch up to 255 steps ahead).
-FOLLOW_SWITCH_STEP_BITS = 8
+#: Low bits of the step number FOLLOW_SWITCH names (a switch up to 4096 steps ahead).
+FOLLOW_SWITCH_STEP_BITS = 12
 CTRL_ENABLE = 1 << 0
 CTRL_SWAP = 1 << 1
 CTRL_BANK = 1 << 2
@@ -262,7 +262,7 @@ def register_map(contract: ReplayContract, inits=None, common_delay: int = 0) ->
         regs.append(Register("FOLLOW_SWITCH", 0x19, (
             Field("channel", 0, 11, "wo", 0, "the channel to switch to its BASE/LENGTH/PHASE_INC/START"),
             Field("step", 16, FOLLOW_SWITCH_STEP_BITS, "wo", 0,
-                  "at the first step from this write's on whose number (steps since reset) has these low bits")),
+                  "at the first step after this write's whose number (steps since reset) has these low bits")),
             "a switch by force at a named step, unchecked (channels that follow the beam, "
             "docs/beam_following.md); a second write replaces one not yet taken"))
     if c.follow_rows:
