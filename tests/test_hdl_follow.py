@@ -6,11 +6,18 @@ import gc
 import random
 import warnings
 
+import numpy as np
 import pytest
 from amaranth.sim import Simulator
+from amaranth.hdl import Elaboratable, Module
 
+from rast.hdl.ecp5_primitives import RegisteredRAM
+from rast.hdl.follow.assigner import BeamAssigner
 from rast.hdl.follow.phase_at_step import PhaseAtStep
-from rast.model.contract.follow import FOLLOW_STEP_BITS, PHASE_CLOCKS, follow_phase
+from rast.model.contract.follow import (FOLLOW_STEP_BITS, PHASE_CLOCKS, Follower, follow_occupancy,
+                                        follow_pattern, follow_phase)
+from rast.model.contract.scan import AZIMUTH_CODES, pattern_words
+from rast.model.physics.antenna import AntennaScan
 
 
 def simulate(dut, bench):
@@ -60,14 +67,7 @@ def test_the_phase_at_a_step_is_the_rules_clock_for_clock():
 
 # ------------------------------------------------------------------ the assigner
 
-import numpy as np                                              # noqa: E402
-from amaranth.hdl import Elaboratable, Module                   # noqa: E402
-from rast.hdl.ecp5_primitives import RegisteredRAM               # noqa: E402
 
-from rast.hdl.follow.assigner import BeamAssigner               # noqa: E402
-from rast.model.contract.follow import Follower, follow_occupancy, follow_pattern   # noqa: E402
-from rast.model.contract.scan import AZIMUTH_CODES, pattern_words   # noqa: E402
-from rast.model.physics.antenna import AntennaScan              # noqa: E402
 
 
 class _AssignerWithTable(Elaboratable):
