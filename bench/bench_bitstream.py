@@ -43,6 +43,10 @@ LADDER = {
                     "2.5 MS/s on a 160 MHz fabric (M = 64, one pipeline), streams in SDRAM, a 4,096-row "
                     "turbine table (docs/beam_following.md)",
                     dict(sample_rate_mhz=2.5, pool="sdram", scan=True, follow_rows=4096)),
+    "f64_2p5_80": ("channels that follow the beam on an 80 MHz fabric (`--scan --follow 4096 --sdram "
+                   "--clock-mhz 80`): 64 FIR channels at 2.5 MS/s as two pipelines of M = 32, streams in "
+                   "SDRAM, a 4,096-row turbine table (docs/beam_following.md)",
+                   dict(sample_rate_mhz=2.5, clock_mhz=80, pool="sdram", scan=True, follow_rows=4096)),
     "n64_20_200": ("64 FIR channels at 20 MS/s on a 200 MHz fabric (M = 10, 7 pipelines), 81,920-word "
                    "pool: the withdrawn target", dict(clock_mhz=200, pool_words=81920)),
     "n16_100_200": ("wide band: 16 FIR channels at 100 MS/s on 200 MHz (M = 2, 8 pipelines)",
