@@ -180,20 +180,22 @@ def test_stream_pool_ecp5_register_trees():
     assert "attribute \\BEL" not in text   # no device named: no floorplan
 
 
-def _dp16kd_bels(text):
-    """``{instance path: BEL}`` of the DP16KD cells in an RTLIL text."""
-    bels, pending, module = {}, None, None
-    for line in text.splitlines():
-        line = line.strip()
-        if line.startswith("module "):
-            module = line.split()[1]
-        elif line.startswith("attribute \\BEL "):
-            pending = line.split(" ", 2)[2].strip('"')
-        elif line.startswith("cell \\DP16KD "):
-            bels[f"{module}.{line.split()[2]}"] = pending
-            pending = None
-        elif line.startswith(("cell ", "wire ")):
-            pending = None
+def _dp16kd_bels(top):
+    """``{instance path: BEL}`` of the DP16KD instances of ``top`` elaborated
+    for the LFE5U-85F: the ``BEL`` attributes its netlist carries, read from
+    the elaborated hierarchy (a fifth of the time of writing the RTLIL)."""
+    from amaranth.hdl import Fragment, Instance
+    bels = {}
+
+    def walk(fragment, path):
+        for k, (sub, name, _) in enumerate(fragment.subfragments):
+            sub_path = f"{path}.{name if name is not None else f'U${k}'}"
+            if isinstance(sub, Instance):
+                if sub.type == "DP16KD":
+                    bels[sub_path] = sub.attrs.get("BEL")
+            else:
+                walk(sub, sub_path)
+    walk(Fragment.get(top, _85F()), "top")
     return bels
 
 
@@ -207,11 +209,10 @@ def test_stream_pool_floorplan_on_the_85f(banks):
     neighbouring sites, the sites left for other RAMs spread between them,
     every slice at a site of its own."""
     import re
-    from amaranth.back import rtlil
     from rast.hdl.ecp5_primitives import block_ram_rows
     rows = block_ram_rows(_85F())
     assert [len(r) for r in rows] == [52] * 4 and len({s for r in rows for s in r}) == 208
-    bels = _dp16kd_bels(rtlil.convert(StreamPool(banks * POOL_BANK_WORDS, 4), platform=_85F()))
+    bels = _dp16kd_bels(StreamPool(banks * POOL_BANK_WORDS, 4))
     assert len(bels) == banks * 2 * STREAM_WIDTH and None not in bels.values()
     assert len(set(bels.values())) == len(bels)
     G = StreamPool.GROUP_BITS
@@ -240,12 +241,10 @@ def test_the_common_line_lies_in_a_block_the_pool_keeps_free():
     the middle of each row for the common delay line: its 16 block RAMs in 4
     neighbouring sites of every row, none shared with the pool, whose groups
     still lie in neighbouring sites in bank order."""
-    from amaranth.back import rtlil
     from rast.hdl.ecp5_primitives import block_ram_rows
     from rast.hdl.replay_top import WindFarmReplay
     rows = block_ram_rows(_85F())
-    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(10, slots=10, pool_words=5 * POOL_BANK_WORDS,
-                                                     max_delay=8190, max_tap=2046), platform=_85F()))
+    bels = _dp16kd_bels(WindFarmReplay(10, slots=10, pool_words=5 * POOL_BANK_WORDS, max_delay=8190, max_tap=2046))
     common = [bel for path, bel in bels.items() if ".common." in path or path.startswith("common")]
     pool = {bel for path, bel in bels.items() if "bank" in path}
     assert len(common) == 16 and len(pool) == 160 and not set(common) & pool
@@ -268,13 +267,12 @@ def test_each_window_lies_in_a_block_of_its_own(channels, slots, banks, per_row)
     different halves of it, no site shared with the pool, the common line
     or another window."""
     import re
-    from amaranth.back import rtlil
     from rast.hdl.ecp5_primitives import block_ram_rows
     from rast.hdl.replay_top import WindFarmReplay
     rows = block_ram_rows(_85F())
     P = -(-channels // slots)
-    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(channels, slots=slots, pool_words=banks * POOL_BANK_WORDS,
-                                                     max_delay=8190, max_tap=2046), platform=_85F()))
+    bels = _dp16kd_bels(WindFarmReplay(channels, slots=slots, pool_words=banks * POOL_BANK_WORDS,
+                                       max_delay=8190, max_tap=2046))
     assert len(bels) == banks * 32 + 16 + P * 4 and None not in bels.values()
     assert len(set(bels.values())) == len(bels)
     windows = {}
@@ -304,12 +302,11 @@ def test_an_sdram_build_places_its_delay_lines(channels, slots):
     of the rows' halves (no half of a row with two windows while another
     half of that row has none), no site used twice."""
     import re
-    from amaranth.back import rtlil
     from rast.hdl.ecp5_primitives import block_ram_rows
     rows = block_ram_rows(_85F())
     P = -(-channels // slots)
-    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(channels, slots=slots, pool="sdram", pool_words=1 << 20,
-                                                     max_delay=8190, max_tap=2046), platform=_85F()))
+    bels = _dp16kd_bels(WindFarmReplay(channels, slots=slots, pool="sdram", pool_words=1 << 20,
+                                       max_delay=8190, max_tap=2046))
     assert len(bels) == 16 + P * 4 and None not in bels.values()
     assert len(set(bels.values())) == len(bels)
     common = [bel for path, bel in bels.items() if "window" not in path]
@@ -344,12 +341,11 @@ def test_each_pattern_table_lies_beside_its_pipelines_window(pool):
     for the default build's pool and for an SDRAM build; no site used
     twice."""
     import re
-    from amaranth.back import rtlil
     from rast.hdl.ecp5_primitives import block_ram_rows
     rows = block_ram_rows(_85F())
     words = 65536 if pool == "bram" else 1 << 20
-    bels = _dp16kd_bels(rtlil.convert(WindFarmReplay(64, slots=8, pool=pool, pool_words=words, max_delay=8190,
-                                                     max_tap=2046, scan=True), platform=_85F()))
+    bels = _dp16kd_bels(WindFarmReplay(64, slots=8, pool=pool, pool_words=words, max_delay=8190,
+                                       max_tap=2046, scan=True))
     assert None not in bels.values() and len(set(bels.values())) == len(bels)
     windows, tables = {}, {}
     for path, bel in bels.items():
