@@ -35,7 +35,7 @@ from .uart import divisor as uart_divisor
 
 __all__ = ["BuildConfig", "BuildError", "build", "check", "tool_env", "parse_nextpnr_report",
            "parse_yosys_stat", "critical_path", "clock_domains", "NAME", "BRAM_POOL_WORDS",
-           "PLACER_OPTIONS", "nextpnr_options", "FABRIC_CLOCK_MHZ", "default_clock_mhz", "clock_reason",
+           "PLACER_OPTIONS", "nextpnr_options", "FABRIC_CLOCK_MHZ", "FOLLOW_MAX_SLOTS", "default_clock_mhz", "clock_reason",
            "netlist_identity"]
 
 NAME = "rast_top"
@@ -61,18 +61,26 @@ BRAM_POOL_WORDS = 65536
 #: was tried over thirty rounds and is not met (docs/bitstream.md).
 FABRIC_CLOCK_MHZ = 160.0
 
+#: The most slots per pipeline a following build (``follow_rows``) takes by
+#: default: at M = 64 its one pipeline misses 160 MHz by thousands of
+#: endpoints, the engine's slot state among them (102-107 MHz at seed 1),
+#: where two pipelines of M = 32 on an 80 MHz fabric close with margin
+#: (docs/beam_following.md, "Timing").
+FOLLOW_MAX_SLOTS = 32
 
-def default_clock_mhz(sample_rate_mhz):
+
+def default_clock_mhz(sample_rate_mhz, max_slots=None):
     """The fabric clock for ``sample_rate_mhz``: M = floor(FABRIC_CLOCK_MHZ /
-    sample rate) slots per pipeline (at least 1), so the clock is the largest
-    whole multiple of the sample rate at or below FABRIC_CLOCK_MHZ (20 MS/s:
-    M = 8, 160 MHz; 2.5 MS/s: M = 64, 160 MHz; 100 MS/s: M = 1, 100 MHz). A
-    sample rate above it runs the fabric at the sample rate (M = 1)."""
+    sample rate) slots per pipeline (at least 1, at most ``max_slots``), so
+    the clock is the largest whole multiple of the sample rate at or below
+    FABRIC_CLOCK_MHZ (20 MS/s: M = 8, 160 MHz; 2.5 MS/s: M = 64, 160 MHz, or
+    M = 32, 80 MHz with ``max_slots`` 32; 100 MS/s: M = 1, 100 MHz). A sample
+    rate above it runs the fabric at the sample rate (M = 1)."""
     if isinstance(sample_rate_mhz, bool) or not isinstance(sample_rate_mhz, (int, float)) \
             or not 0 < sample_rate_mhz < float("inf"):
         raise ValueError(f"Sample rate must be a positive number of MHz, not {sample_rate_mhz!r}")
     slots = max(1, int(FABRIC_CLOCK_MHZ // sample_rate_mhz + 1e-9))
-    return slots * sample_rate_mhz
+    return min(slots, max_slots or slots) * sample_rate_mhz
 
 
 def clock_reason(cfg: "BuildConfig", asked_mhz=None) -> str:
@@ -83,8 +91,10 @@ def clock_reason(cfg: "BuildConfig", asked_mhz=None) -> str:
              f"pipeline(s) for {c.channels} channel(s)")
     if asked_mhz is not None:
         return f"fabric clock {cfg.clock_mhz:g} MHz as asked ({shape})"
+    capped = (f" and at most {FOLLOW_MAX_SLOTS} slots per pipeline (a following build: "
+              f"docs/beam_following.md)" if cfg.follow_rows else "")
     return (f"fabric clock {cfg.clock_mhz:g} MHz ({shape}): the largest whole multiple of the sample "
-            f"rate at or below {FABRIC_CLOCK_MHZ:g} MHz, the clock the 64-channel engine meets on "
+            f"rate at or below {FABRIC_CLOCK_MHZ:g} MHz{capped}, the clock the 64-channel engine meets on "
             f"every nextpnr seed with margin (README, timing table); --clock-mhz asks for another")
 
 
@@ -172,7 +182,8 @@ class BuildConfig:
         if self.pool_words is None:
             self.pool_words = SDRAM_MAX_POOL_WORDS if self.pool == "sdram" else BRAM_POOL_WORDS
         if self.clock_mhz is None:
-            self.clock_mhz = default_clock_mhz(self.sample_rate_mhz)
+            self.clock_mhz = default_clock_mhz(self.sample_rate_mhz,
+                                               max_slots=FOLLOW_MAX_SLOTS if self.follow_rows else None)
 
     @property
     def slots(self) -> int:

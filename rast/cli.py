@@ -220,11 +220,14 @@ def cmd_preview(args) -> int:
 
 
 def default_contract(farm):
-    """The default build at ``farm``'s sample rate: what the guard of a board
-    following the beam is timed on when no build is named."""
+    """The default following build at ``farm``'s sample rate (the largest
+    turbine table): what the guard of a board following the beam is timed on
+    when no build is named."""
     import dataclasses
     from rast.gateware.build import BuildConfig
-    contract = BuildConfig(sample_rate_mhz=farm.sample_rate_mhz).contract()
+    from rast.model.contract.fixedpoint import ReplayContract
+    contract = BuildConfig(sample_rate_mhz=farm.sample_rate_mhz, pool="sdram", scan=True,
+                           follow_rows=ReplayContract.MAX_FOLLOW_ROWS).contract()
     return dataclasses.replace(contract, sample_rate_hz=round(farm.sample_rate_hz))
 
 

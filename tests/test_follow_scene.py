@@ -51,7 +51,7 @@ def test_the_channels_the_scene_needs_are_counted_code_by_code():
 
     farm = load_config(SCENE)
     contract = default_contract(farm)
-    assert contract.slots == 64 and contract.sample_rate_hz == 2_500_000
+    assert (contract.slots, contract.pipelines, contract.sample_rate_hz) == (32, 2, 2_500_000)   # the following build
     text = farm_follow_plan(farm, contract)
     need = int(re.search(r"at most (\d+) of the (\d+) turbines", text).group(1))
     guard = int(re.search(r"takes its channel (\d+) codes", text).group(1))
@@ -71,6 +71,7 @@ def test_the_channels_the_scene_needs_are_counted_code_by_code():
             held[0] += 1
             held[last - AZIMUTH_CODES] -= 1
     assert need == np.cumsum(held)[:AZIMUTH_CODES].max()
+    assert need <= contract.channels == 64            # the scene fits the 64-channel following build
     with pytest.raises(ValueError, match=f"{need} turbines are within the beam's window at once"):
         farm_follow_plan(farm, contract, channels=need - 1)
     assert f"at most {need} of the" in farm_follow_plan(farm, contract, channels=need)

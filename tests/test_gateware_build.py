@@ -346,6 +346,20 @@ def test_the_readme_timing_table_heads_with_the_default_build():
     assert (c.channels, cfg.sample_rate_mhz, c.slots, cfg.clock_mhz, c.pool_words) == (64, 20, 8, 160, 65_536)
 
 
+def test_a_following_build_takes_at_most_32_slots_per_pipeline_unless_asked():
+    """At 2.5 MS/s the default clock is 160 MHz (M = 64), but a following
+    build's is 80 MHz (two pipelines of M = 32), the shape that closes timing;
+    --clock-mhz 160 still asks for the one pipeline of 64."""
+    from rast.gateware.build import clock_reason
+    follow = dict(sample_rate_mhz=2.5, pool="sdram", scan=True, follow_rows=4096)
+    cfg = BuildConfig(**follow)
+    assert (cfg.clock_mhz, cfg.contract().slots, cfg.contract().pipelines) == (80, 32, 2)
+    assert "at most 32 slots per pipeline" in clock_reason(cfg)
+    assert (BuildConfig(sample_rate_mhz=2.5).clock_mhz, BuildConfig(sample_rate_mhz=2.5).contract().slots) == (160, 64)
+    assert BuildConfig(**follow, clock_mhz=160).contract().slots == 64
+    assert BuildConfig(sample_rate_mhz=20, pool="sdram", scan=True, follow_rows=64).clock_mhz == 160
+
+
 def test_a_router_that_stops_converging_fails_the_build(tmp_path):
     """nextpnr's router1 going round its last arcs (seeds 2 and 3 of the
     64-channel build did for an hour) is killed once its fewest arcs left
