@@ -51,7 +51,7 @@ def test_a_stream_starts_at_its_start_fraction_bit_exact(interpolation, slots):
     per_access = -(-take_interval(slots) // slots)
     ops, at, base = [], 20, used
     for l, enable in ((0, False), (1, True), (2, False), (3, False)):
-        n = int(rng.integers(24, 40))
+        n = int(rng.integers(12, 18))            # (short: the starts are the subject)
         words = pack_iq(rng.integers(-20000, 20000, n), rng.integers(-20000, 20000, n))
         top = dut.contract.max_phase_increment
         start, inc = int(rng.integers(1, 1 << 32)), int(rng.integers(top // 4, top + 1))
@@ -121,7 +121,7 @@ def test_a_switch_at_a_named_step_bit_exact(interpolation, slots, valid):
     top = dut.contract.max_phase_increment
     ops, at, base, plan = [], 10, used, []
     for l, lead in ((0, 37), (1, 1), (2, 200), (3, 90), (2, 12)):
-        n = int(rng.integers(24, 40))
+        n = int(rng.integers(12, 18))            # (short: the switches are the subject)
         words = pack_iq(rng.integers(-20000, 20000, n), rng.integers(-20000, 20000, n))
         ops += [(at, "w", rmap.addr("STREAM_ADDR"), base)]
         ops += [(at, "w", rmap.addr("STREAM_DATA"), int(w)) for w in words]
