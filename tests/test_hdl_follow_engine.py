@@ -41,7 +41,7 @@ def test_following_channels_play_what_one_channel_per_turbine_plays(interpolatio
                          sample_rate_hz=RATE, scan=True, start_frac=True, follow_rows=16)
     c, rmap = dut.contract, dut.register_map
     azimuths = sector(c, n)
-    scene = follow_scene(rng, c, SCAN, azimuths, stream_words=(40, 60) if interpolation == "fir" else (6, 11))
+    scene = follow_scene(rng, c, SCAN, azimuths, stream_words=(16, 28) if interpolation == "fir" else (6, 11))
     assert follow_occupancy(azimuths, scene["window"], scene["guard"]).channels == C
     # the sweep: from the beam's start past the last turbine's window
     T0 = (len(scene["ops"]) + 10) * -(-8 // slots) + 20
