@@ -61,9 +61,10 @@ def test_every_example_oversampled_takes_the_grid_and_stays_within_minus_100_dbc
     # each): the grid path, checked at 20 000 random instants.
     farm = load_config(path)
     lam = farm.radar.wavelength_m
-    # (a scene of thousands, the beam-following example: every k-th windmill,
-    # at most 512, across all its farms; each is synthesised as any other)
-    step = -(-len(farm.windmills) // 512)
+    # (the scenes of hundreds and thousands, the air-traffic and the
+    # beam-following examples: every k-th windmill, at most 128, across all
+    # their farms and turbine models; each is synthesised as any other)
+    step = -(-len(farm.windmills) // 128)
     windmills = [dataclasses.replace(w, stream_rate=2000 * max_doppler_hz(w, lam)) for w in farm.windmills[::step]]
     farm = dataclasses.replace(farm, windmills=windmills, interpolation="hold", ram_depth=None)
     for w in farm.windmills:
