@@ -46,23 +46,29 @@ def _offset(lat, lon, east_m, north_m):
     return lat2, lon2
 
 
+def grid_offsets_m(bearing, range_km, row, place, along, spacing, row_gap):
+    """East and north (m) from the radar of the turbine at ``place`` in row
+    ``row`` of a farm's grid (``FARMS``' columns), without its jitter."""
+    b, a = np.radians(bearing), np.radians(along)
+    across = a + np.pi / 2
+    east = range_km * 1e3 * np.sin(b) + place * spacing * np.sin(a) + row * row_gap * np.sin(across)
+    north = range_km * 1e3 * np.cos(b) + place * spacing * np.cos(a) + row * row_gap * np.cos(across)
+    return east, north
+
+
 def layout_rows(seed=512, farms=FARMS, radar=(RADAR_LAT, RADAR_LON), first_case=3200001, county="Synthetic County, TX"):
     """The layout's CSV rows: each farm a jittered grid (``FARMS``' columns)."""
     rng = np.random.default_rng(seed)
     rows, case = [], first_case
     for (name, bearing, range_km, n_rows, per_row, along, spacing, row_gap,
          manu, model, cap, hub, rotor, year) in farms:
-        b, a = np.radians(bearing), np.radians(along)
-        across = a + np.pi / 2
-        e0, n0 = range_km * 1e3 * np.sin(b), range_km * 1e3 * np.cos(b)
         count = n_rows * per_row
         swept = np.pi * (rotor / 2) ** 2
         for r in range(n_rows):
             for k in range(per_row):
                 jitter = rng.uniform(-JITTER_M, JITTER_M, size=2)
-                e = e0 + k * spacing * np.sin(a) + r * row_gap * np.sin(across) + jitter[0]
-                n = n0 + k * spacing * np.cos(a) + r * row_gap * np.cos(across) + jitter[1]
-                lat, lon = _offset(*radar, e, n)
+                e, n = grid_offsets_m(bearing, range_km, r, k, along, spacing, row_gap)
+                lat, lon = _offset(*radar, e + jitter[0], n + jitter[1])
                 rows.append(f'{case},,,,,TX,"{county}",48999,{name},{year},{count},'
                             f"{count * cap / 1000:.1f},{manu},{model},{cap},{hub},{rotor},{swept:.2f},"
                             f"{hub + rotor / 2:.1f},0,,3,3,,synthetic,{lon:.6f},{lat:.6f}")

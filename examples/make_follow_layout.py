@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from make_atc_512_layout import COLUMNS, layout_rows  # noqa: E402
+from make_atc_512_layout import COLUMNS, grid_offsets_m, layout_rows  # noqa: E402
 
 RADAR_LAT, RADAR_LON = 32.4000, -100.0000
 #: (manufacturer, model, capacity kW, hub m, rotor m)
@@ -41,10 +41,8 @@ DRAWS = 50
 
 def _bearings_deg(bearing, range_km, n_rows, per_row, along, spacing, row_gap):
     """The bearings of a farm's grid without its jitter (as layout_rows lays it)."""
-    b, a = np.radians(bearing), np.radians(along)
-    k, r = np.meshgrid(np.arange(per_row), np.arange(n_rows))
-    e = range_km * 1e3 * np.sin(b) + k * spacing * np.sin(a) + r * row_gap * np.sin(a + np.pi / 2)
-    n = range_km * 1e3 * np.cos(b) + k * spacing * np.cos(a) + r * row_gap * np.cos(a + np.pi / 2)
+    place, row = np.meshgrid(np.arange(per_row), np.arange(n_rows))
+    e, n = grid_offsets_m(bearing, range_km, row, place, along, spacing, row_gap)
     return np.degrees(np.arctan2(e, n)).ravel() % 360
 
 

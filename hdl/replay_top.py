@@ -359,11 +359,11 @@ class WindFarmReplay(wiring.Component):
         if c.start_frac:
             # the steps since reset, counted at the landing clock (``start``:
             # the clock before the pipelines' period start, where a write lands
-            # and the period's step is ``stepped``), for FOLLOW_SWITCH
-            # The landing clock and its step once more, in kept registers of
-            # the following's own (``start`` fans out over the whole device:
-            # from it, the switch's held flag was the following build's latest
-            # path, 9.3 ns of which 7.9 routing).
+            # and the period's step is ``stepped``), for FOLLOW_SWITCH; the
+            # landing clock and its step from kept registers of the following's
+            # own (``start`` fans out over the whole device: from it, the
+            # switch's held flag was the following build's latest path, 9.3 ns
+            # of which 7.9 routing)
             land_tick = kept_register(m, env.platform, env.start_in, "follow_land_tick", reset=True, init=1)
             land_step = kept_register(m, env.platform, env.start_in & env.stepped_in, "follow_land_step", reset=True)
             steps = Signal(FOLLOW_SWITCH_STEP_BITS, name="steps_lo")

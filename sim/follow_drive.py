@@ -17,7 +17,7 @@ import numpy as np
 
 from rast.model.contract.fixedpoint import PHASE_FRAC_BITS, ReplayContract, pack_iq
 from rast.model.contract.follow import FollowRow, follow_guard_codes, follow_pattern, follow_phase, pack_rows
-from rast.model.contract.regmap import CTRL_ENABLE, SCAN_RESTART, register_map
+from rast.model.contract.regmap import CTRL_ENABLE, SCAN_RESTART, follow_switch_word, register_map
 from rast.model.contract.scan import AZIMUTH_CODES, pattern_words
 from rast.sim.scan_drive import model_replay
 
@@ -100,7 +100,7 @@ def follow_reference(contract: ReplayContract, rows, done, xi, xq):
                             ("PHASE_INC", r.phase_inc), ("BASE", r.base + (phase >> PHASE_FRAC_BITS)),
                             ("START", phase & 0xFFFFFFFF)):
             loads.append((at, "w", rref.addr(name, l), value))
-        loads += [(at, "w", rref.addr("FOLLOW_SWITCH"), l | (switch & 0xFFF) << 16),
+        loads += [(at, "w", rref.addr("FOLLOW_SWITCH"), follow_switch_word(rref, l, switch)),
                   (at, "w", rref.addr("CTRL", l), CTRL_ENABLE)]
     loads.append((k0 + 2 * (len(rows) - 1), "w", rref.addr("APPLY"), 1))        # (every DELAY in)
     yi, yq, _, _ = model_replay(ref, [], xi, xq, sorted(shared + loads, key=lambda d: d[0]))

@@ -68,8 +68,6 @@ def test_the_phase_at_a_step_is_the_rules_clock_for_clock():
 # ------------------------------------------------------------------ the assigner
 
 
-
-
 class _AssignerWithTable(Elaboratable):
     """The assigner reading its rows' azimuths from a block RAM with its
     output register (the turbine table's read)."""

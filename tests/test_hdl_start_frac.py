@@ -9,7 +9,7 @@ import pytest
 from rast.hdl.replay_top import WindFarmReplay
 from rast.model.contract.fixedpoint import pack_iq, take_interval
 from rast.model.contract.powerup import ChannelInit
-from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP, stream_crc32
+from rast.model.contract.regmap import CTRL_ENABLE, CTRL_SWAP, follow_switch_word, stream_crc32
 
 from hdl_harness import run_replay, model_replay, assert_same, assert_reads
 
@@ -130,7 +130,7 @@ def test_a_switch_at_a_named_step_bit_exact(interpolation, slots, valid):
                 (at, "w", rmap.addr("START", l), int(rng.integers(0, 1 << 32)))]
         at += (n + 6) * per_access + 4
         plan.append((at, l, lead))
-        ops.append((at, "w", rmap.addr("FOLLOW_SWITCH"), l | ((at + lead) & 0xFFF) << 16))
+        ops.append((at, "w", rmap.addr("FOLLOW_SWITCH"), follow_switch_word(rmap, l, at + lead)))
         at += 2 * per_access + (lead if lead < 100 else 10) + 20       # channel 2's first switch is replaced
         base += n
     T = at + 200
@@ -140,11 +140,11 @@ def test_a_switch_at_a_named_step_bit_exact(interpolation, slots, valid):
     assert_same(f"follow switch {interpolation} M={slots}", xi, xq, hi, hq, mi, mq)
     switch_writes = [d for d in done if d[1] == "w" and d[2] == rmap.addr("FOLLOW_SWITCH")]
     assert [d[0] for d in switch_writes] == [p[0] for p in plan]      # (hold: each write at its step)
-    for k, (step, _, _) in enumerate(plan):           # a step off either way plays otherwise
+    for k, (at, l, lead) in enumerate(plan):         # a step off either way plays otherwise
         for shift in (-1, 1):
-            moved = [d if d is not switch_writes[k] else (d[0], "w", d[2], d[3] + (shift << 16) & 0xFFFFFFFF)
-                     for d in done]
-            if plan[k][2] >= 100 or plan[k][2] + shift < 1:
-                continue                               # (replaced before its step; the write's own step: 256 on)
+            if lead >= 100 or lead + shift < 1:
+                continue                               # (replaced before its step; the write's own step: a span on)
+            word = follow_switch_word(rmap, l, at + lead + shift)
+            moved = [d if d is not switch_writes[k] else (d[0], "w", d[2], word) for d in done]
             si, sq, _, _ = model_replay(dut.contract, inits, xi, xq, moved, dut.init_common_delay)
             assert (si != hi).any() or (sq != hq).any(), (k, shift)

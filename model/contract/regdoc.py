@@ -2,7 +2,7 @@
 (``python -m rast.model.contract.regdoc > docs/registers.md``)."""
 
 from rast.model.contract.fixedpoint import ReplayContract, WRITE_STAGING, ACCEPT_LAG
-from rast.model.contract.regmap import RegisterMap, register_map
+from rast.model.contract.regmap import FOLLOW_SWITCH_STEP_BITS, RegisterMap, register_map
 
 __all__ = ["markdown", "registers_doc"]
 
@@ -172,10 +172,10 @@ a channel starts at any phase of its stream. The switch's refill is the
 same: the channel is muted for its refill samples, the phase held, then
 plays from START. FOLLOW_SWITCH switches a channel by force (as a disabling
 CTRL write with a SWAP taken, but unchecked and whether the channel is
-enabled or not) at the step it names by the low 12 bits of its number
+enabled or not) at the step it names by the low {FOLLOW_SWITCH_STEP_BITS} bits of its number
 (steps accepted since reset): the first such step after the write's own (1
-to 4,096 steps later). In a following build a write naming a step already
-past (2,048 or more back) sets STATUS.late. So a host, or the board's own loader, that knows the phase
+to {1 << FOLLOW_SWITCH_STEP_BITS:,} steps later). In a following build a write naming a step already
+past ({1 << FOLLOW_SWITCH_STEP_BITS - 1:,} or more back) sets STATUS.late. So a host, or the board's own loader, that knows the phase
 a turbine will have at a step can start its stream there exactly, whatever
 the gaps in the input.
 

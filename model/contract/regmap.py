@@ -30,7 +30,7 @@ from rast.model.contract.scan import (AZIMUTH_BITS, PATTERN_INDEX_BITS, PATTERN_
                                       ACP_MIN_LEARN, AZIMUTH_CODES)
 
 __all__ = ["Field", "Register", "RegisterMap", "register_map", "ID_VALUE", "CHANNEL_BASE",
-           "CHANNEL_STRIDE", "SCAN_CHANNEL_BASE", "SCAN_CHANNEL_STRIDE", "SCAN_RESTART", "FOLLOW_SWITCH_STEP_BITS", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
+           "CHANNEL_STRIDE", "SCAN_CHANNEL_BASE", "SCAN_CHANNEL_STRIDE", "SCAN_RESTART", "FOLLOW_SWITCH_STEP_BITS", "follow_switch_word", "CTRL_ENABLE", "CTRL_SWAP", "CTRL_BANK", "CTRL_REJECTED", "STORED",
            "CRC32_POLY", "stream_crc32", "APPLIED_LSB"]
 
 ID_VALUE = 0x52415354          # "RAST"
@@ -135,6 +135,13 @@ class RegisterMap:
 
     def by_addr(self, addr) -> Register | None:
         return self._by_addr.get(addr)
+
+
+def follow_switch_word(rmap: "RegisterMap", channel: int, step: int) -> int:
+    """FOLLOW_SWITCH's word: switch ``channel`` at step number ``step`` (its
+    low FOLLOW_SWITCH_STEP_BITS bits)."""
+    f = rmap.reg("FOLLOW_SWITCH").field("step")
+    return channel | (step % (1 << f.width)) << f.lsb
 
 
 def _bits(n: int) -> int:
