@@ -27,13 +27,14 @@ STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=None, pool_words=None,
          max_delay=None, max_tap=None):
     """One case (``pulses``: the scenario's own number, 30 for a farm and 40
-    otherwise, unless given); on Icarus (a cycle ~40 times slower) with a
-    quarter of the pulses: the mid-run register writes land inside them all
-    the same."""
+    otherwise, unless given); on Icarus (a cycle 100 to 1,000 times slower)
+    with an eighth of the pulses: the mid-run register writes (at random
+    samples of the whole run) and the farm's reload (after its first pulse)
+    land inside them all the same."""
     if pulses is None:
         pulses = 30 if kind == "farm" else 40
     if simulator == "icarus":
-        pulses //= 4
+        pulses //= 8
     given = dict(pool_words=pool_words, max_delay=max_delay, max_tap=max_tap)
     contract = dict(TEST_CONTRACT, **{k: v for k, v in given.items() if v is not None})
     sources, top = top_sources(channels, slots=slots, interpolation=interpolation, **contract)
