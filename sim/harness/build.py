@@ -35,7 +35,7 @@ def build_harness(sources: dict[str, str], toplevel: str = "rast_bulk", jobs: in
     h = hashlib.sha256(main.encode())
     clock_args = ((*runner.BURST_CLOCK_ARGS, "-CFLAGS", "-DRAST_BURST_CLOCK") if clock == "burst"
                   else runner.EXTERNAL_CLOCK_ARGS)
-    flags = (*clock_args, *runner.BULK_CFLAGS, *runner.SPLIT_ARGS, *extra_args)
+    flags = (*clock_args, *runner.BULK_CFLAGS, *runner.split_args(sources), *extra_args)
     h.update("\0".join(flags).encode())
     for k in sorted(sources):
         h.update(k.encode() + sources[k].encode())
