@@ -26,8 +26,8 @@ from rast.sim.top import top_sources
 CONFIG = Path(__file__).resolve().parent.parent / "examples" / "two_windmills.toml"
 #: Icarus's scene: two three-blade windmills at 2 km as CONFIG, blades of 4
 #: and 5 m (a stream's words grow with the blade, not the rpm) so that the
-#: streams are a few thousand words, not CONFIG's 41,264: Icarus spends its
-#: run on the load's bus writes.
+#: streams are 2,693 words, not CONFIG's 41,264: Icarus spends its run on
+#: the load's bus writes (86 of 90 s with CONFIG).
 SMALL = """sample_rate = 20
 radar_frequency = 5350
 prf = 20000
@@ -89,8 +89,7 @@ def test_two_windmills_icarus(simulator, tmp_path):
     # two 10 us chirps of every pulse through both windmills' channels, their
     # echoes 13 us later) with every output sample compared with the model;
     # the spectrograms and their Doppler checks are the Verilator test's. The
-    # scene is SMALL (2,693 stream words): the load's bus writes were 86 of
-    # two_windmills' 90 s.
+    # scene is SMALL.
     config = tmp_path / "small.toml"
     config.write_text(SMALL)
     rep = run_e2e(simulator, 0.00025, "small-0.25ms", require_peaks=False, noise_rms=0.002, config=config)

@@ -27,7 +27,7 @@ STALLS = {"nogaps": (0, 0), "gaps": (48, 48), "heavy": (160, 128)}
 def _run(simulator, channels, kind, seed, stalls, interpolation="fir", slots=1, pulses=None, pool_words=None,
          max_delay=None, max_tap=None):
     """One case (``pulses``: the scenario's own number, 30 for a farm and 40
-    otherwise, unless given); on Icarus (a cycle 100 to 1,000 times slower)
+    otherwise, unless given); on Icarus (250 to 2,400 cycles a second here)
     with an eighth of the pulses: the mid-run register writes (at random
     samples of the whole run) and the farm's reload (after its first pulse)
     land inside them all the same."""
