@@ -35,7 +35,8 @@ from rast.sim.bulk import BURST_CYCLES, CLOCK_ENV
 
 __all__ = [
     "REPO_ROOT", "SIM_BUILD", "SIMULATORS", "TIMESCALE", "BULK_CFLAGS", "BULK_VERILATOR_ARGS",
-    "BURST_CLOCK_ARGS", "EXTERNAL_CLOCK_ARGS", "SPLIT_ARGS", "SPLIT_MIN_CHARS", "split_args", "CFLAGS_ENV", "bulk_cflags",
+    "BURST_CLOCK_ARGS", "EXTERNAL_CLOCK_ARGS", "SPLIT_ARGS", "SPLIT_MIN_CHARS", "split_args", "CFLAGS_ENV",
+    "bulk_cflags",
     "available_simulators", "default_simulator", "waves_requested", "Build", "build", "run",
     "SimulationFailed", "icarus_time_zero_kick",
 ]
@@ -113,7 +114,8 @@ def split_args(sources: dict[str, str]) -> tuple[str, ...]:
     """SPLIT_ARGS for Verilog ``sources`` (file name -> text) larger than SPLIT_MIN_CHARS."""
     return SPLIT_ARGS if sum(len(text) for text in sources.values()) > SPLIT_MIN_CHARS else ()
 
-#: A bulk build's arguments as :func:`build` makes them without waves.
+#: A bulk build's arguments as :func:`build` makes them without waves
+#: (and SPLIT_ARGS after them for Verilog over SPLIT_MIN_CHARS).
 BULK_VERILATOR_ARGS = ("--no-public-flat-rw", *BURST_CLOCK_ARGS, *BULK_CFLAGS)
 
 

@@ -2,9 +2,9 @@
 from rast.sim.pytest_support import pytest_addoption, pytest_configure  # noqa: F401
 
 #: The longest tests, longest first (seconds of a fresh clone's run on two
-#: cores, 2026-12-08 at a0f23ce, on a machine half as fast as the one before;
-#: docs/cosim_speed.md): they start before everything else, so that the suite
-#: does not end with one worker waiting on a long test that started late.
+#: cores, 2026-12-08 at a0f23ce, on a machine slower per core than the one
+#: before; docs/cosim_speed.md): they start before everything else, so that
+#: the suite does not end with one worker waiting on a long test that started late.
 LONGEST_FIRST = (
     "test_sdram_engine_cosim.py::test_64_realistic_turbines",       # 179 s
     "test_gateware_build.py::test_engine_bitstream",                # 124 s
